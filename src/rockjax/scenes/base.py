@@ -1,0 +1,209 @@
+"""What every scene builder shares: the ``Scene`` bundle, particle lattices, tank walls,
+water parameters, the host-side time step, and the host-side checks of params against config.
+
+Everything here runs on the host with numpy; the arrays become ``jax.Array`` only in
+``make_state``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import jax.numpy as jnp
+import numpy as np
+
+from ..sph.eos import tait_density
+from ..sph.kernels import SUPPORT_FACTOR
+from ..types import (
+    Config, DensityDiffusion, FluidParams, GridSpec, Kind, KernelKind, NeighbourList, Params, Particles, Scheme,
+    State, Viscosity, WallModel, float_dtype,
+)
+
+__all__ = [
+    "Scene", "lattice", "tank_walls", "water_params", "stable_dt", "check_params", "make_state",
+    "fluid_scene", "GRAVITY", "empty_neighbours",
+]
+
+GRAVITY = 9.81
+
+
+@dataclasses.dataclass(frozen=True)
+class Scene:
+    """A runnable scene: static config, calibratable params, initial state and metadata.
+
+    ``meta`` is a plain dict with at least ``name`` and ``dx`` plus scene-specific geometry
+    (e.g. the dam-break column size), in SI units.
+    """
+
+    config: Config
+    params: Params
+    state: State
+    meta: dict[str, Any]
+
+    @property
+    def name(self) -> str:
+        return str(self.meta.get("name", "scene"))
+
+    def replace(self, **changes) -> "Scene":
+        return dataclasses.replace(self, **changes)
+
+    def counts(self) -> dict[str, int]:
+        kind = np.asarray(self.state.particles.kind)
+        return {"fluid": int((kind == Kind.FLUID).sum()), "wall": int((kind == Kind.WALL).sum()),
+                "pad": int((kind == Kind.PAD).sum())}
+
+
+def _positive(name: str, value: float) -> float:
+    value = float(value)
+    if not (value > 0 and math.isfinite(value)):
+        raise ValueError(f"{name} must be a positive finite number in SI units (got {value})")
+    return value
+
+
+def lattice(lo, hi, dx: float) -> np.ndarray:
+    """Cell-centred cubic lattice filling the box [lo, hi] (m): points ``lo + (i + 1/2) dx``.
+
+    The box sizes are rounded to whole numbers of dx. Returns [n, 3] float64.
+    """
+    lo = np.asarray(lo, float)
+    hi = np.asarray(hi, float)
+    n = np.maximum(np.round((hi - lo) / dx).astype(int), 0)
+    axes = [lo[a] + (np.arange(n[a]) + 0.5) * dx for a in range(3)]
+    g = np.meshgrid(*axes, indexing="ij")
+    return np.stack([c.ravel() for c in g], axis=1)
+
+
+def tank_walls(lo, hi, dx: float, layers: int, *, periodic=(False, False, False), open_top: bool = True) -> np.ndarray:
+    """Wall particles around the box [lo, hi]: ``layers`` lattice layers outside each closed face.
+
+    The lattice continues the fluid lattice (first layer centred dx/2 outside the wall). Faces
+    normal to a periodic axis get no wall; with ``open_top`` the top (+z) face has none either.
+    Returns [n, 3] float64.
+    """
+    lo = np.asarray(lo, float)
+    hi = np.asarray(hi, float)
+    ext_lo = np.array([lo[a] if periodic[a] else lo[a] - layers * dx for a in range(3)])
+    ext_hi = np.array([hi[a] if (periodic[a] or (a == 2 and open_top)) else hi[a] + layers * dx for a in range(3)])
+    pts = lattice(ext_lo, ext_hi, dx)
+    inside = np.all((pts > lo) & (pts < hi), axis=1)
+    if open_top:
+        inside |= np.all((pts[:, :2] > lo[:2]) & (pts[:, :2] < hi[:2]), axis=1) & (pts[:, 2] > lo[2])
+    return pts[~inside]
+
+
+def water_params(*, dx: float, c0: float, h_factor: float = 1.3, alpha: float = 0.02, nu: float = 1e-6,
+                 delta: float = 0.1, rho0: float = 1000.0, gravity: float = GRAVITY) -> Params:
+    """Params for water at resolution ``dx`` [m]: h = h_factor dx, speed of sound c0 [m/s]."""
+    dt = float_dtype()
+    fluid = FluidParams(
+        rho0=jnp.asarray(rho0, dt), c0=jnp.asarray(c0, dt), h=jnp.asarray(h_factor * dx, dt),
+        alpha=jnp.asarray(alpha, dt), nu=jnp.asarray(nu, dt), delta=jnp.asarray(delta, dt),
+    )
+    return Params(gravity=jnp.asarray([0.0, 0.0, -gravity], dt), fluid=fluid)
+
+
+def stable_dt(params: Params, *, scheme: Scheme, viscosity: Viscosity, cfl: float = 0.25) -> float:
+    """Largest stable time step [s] for these params (host side, from concrete values).
+
+    ``min(cfl h / c0, 0.125 h^2 / nu [laminar or seed viscosity], 0.25 sqrt(h / |g|))``.
+    """
+    f = params.fluid
+    h, c0, nu = float(f.h), float(f.c0), float(f.nu)
+    g = float(np.linalg.norm(np.asarray(params.gravity)))
+    limits = [cfl * h / c0]
+    if (scheme == Scheme.SEED or viscosity == Viscosity.LAMINAR) and nu > 0:
+        limits.append(0.125 * h * h / nu)
+    if g > 0:
+        limits.append(0.25 * math.sqrt(h / g))
+    return min(limits)
+
+
+def check_params(config: Config, params: Params) -> None:
+    """Refuse params that the static config cannot run safely (host side, concrete values only)."""
+    f = params.fluid
+    if f is None:
+        return
+    for name in ("rho0", "c0", "h"):
+        value = np.asarray(getattr(f, name))
+        if not np.all(np.isfinite(value)) or np.any(value <= 0):
+            raise ValueError(f"Params.fluid.{name} must be positive and finite (got {value})")
+    support = SUPPORT_FACTOR * float(np.max(np.asarray(f.h)))
+    if support > config.cutoff * (1 + 1e-6):
+        raise ValueError(
+            f"Params.fluid.h = {float(np.max(np.asarray(f.h))):.4g} m gives a kernel support of {support:.4g} m, "
+            f"beyond Config.cutoff = {config.cutoff:.4g} m; rebuild the scene with this h (or a larger cutoff)."
+        )
+    limit = stable_dt(params, scheme=config.scheme, viscosity=config.viscosity, cfl=2 * config.cfl)
+    if config.dt > limit * (1 + 1e-6):
+        raise ValueError(
+            f"Config.dt = {config.dt:.4g} s exceeds the stability limit {limit:.4g} s for these Params "
+            f"(h = {float(f.h):.4g} m, c0 = {float(f.c0):.4g} m/s, nu = {float(f.nu):.3g} m^2/s); "
+            "use a smaller dt (Config.replace(dt=...)) or rebuild the scene."
+        )
+
+
+def make_state(*, config: Config, x: np.ndarray, kind: np.ndarray, vol: np.ndarray, rho: np.ndarray,
+               v: np.ndarray | None = None) -> State:
+    """Initial ``State`` from host arrays (neighbour list empty; the first step rebuilds it)."""
+    n = x.shape[0]
+    dt = float_dtype()
+    v = np.zeros_like(x) if v is None else v
+    particles = Particles(
+        x=jnp.asarray(x, dt), v=jnp.asarray(v, dt), a=jnp.zeros((n, 3), dt), rho=jnp.asarray(rho, dt),
+        drho_dt=jnp.zeros((n,), dt), p=jnp.zeros((n,), dt), vol=jnp.asarray(vol, dt),
+        kind=jnp.asarray(kind, jnp.int32), pid=jnp.arange(n, dtype=jnp.int32),
+    )
+    nbrs = empty_neighbours(config, particles.x)
+    return State(step=jnp.zeros((), jnp.int32), particles=particles, nbrs=nbrs, status=jnp.zeros((), jnp.int32))
+
+
+def empty_neighbours(config: Config, x) -> NeighbourList:
+    """A neighbour list of the config's shapes holding no pairs (every slot is the row itself)."""
+    nf = config.n_fluid
+    zero = jnp.zeros((), jnp.int32)
+    return NeighbourList(
+        idx=jnp.tile(jnp.arange(nf, dtype=jnp.int32)[:, None], (1, config.neighbour_capacity)),
+        x_ref=jnp.asarray(x), max_count=zero, max_run=zero,
+    )
+
+
+def _capacities(h_factor: float, list_radius_dx: float, run_length: int) -> tuple[int, int]:
+    """Neighbour, wall-row and cell-run capacities for a regular lattice (the driver regrows)."""
+    n_sphere = 4.0 / 3.0 * math.pi * list_radius_dx**3
+    k = int(math.ceil(1.15 * n_sphere / 8.0) * 8)
+    side = math.ceil(list_radius_dx - 1e-9)  # most lattice planes a cell can cut
+    run = math.ceil(run_length * list_radius_dx - 1e-9)
+    c = int(math.ceil(1.1 * side * side * run / 8.0) * 8)
+    return k, c
+
+
+def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domain_lo, domain_hi,
+                periodic, surface_z: float | None, c0: float, scheme: Scheme, kernel: KernelKind,
+                viscosity: Viscosity, wall_model: WallModel, density_diffusion: DensityDiffusion,
+                h_factor: float, alpha: float, nu: float, delta: float, skin_factor: float,
+                rebuild_every: int, cfl: float, meta: dict) -> Scene:
+    """Assemble a fluid-only scene from host point sets (used by the built-in builders)."""
+    params = water_params(dx=dx, c0=c0, h_factor=h_factor, alpha=alpha, nu=nu, delta=delta)
+    cutoff = SUPPORT_FACTOR * h_factor * dx
+    skin = skin_factor * dx
+    grid = GridSpec.covering(domain_lo, domain_hi, min_cell=cutoff + skin, periodic=periodic)
+    x = np.concatenate([fluid_x, wall_x], axis=0)
+    kind = np.concatenate([np.full(len(fluid_x), Kind.FLUID), np.full(len(wall_x), Kind.WALL)]).astype(np.int32)
+    vol = np.full(len(x), dx**3)
+    rho = np.full(len(x), 1000.0)
+    if surface_z is not None and scheme == Scheme.WCSPH:
+        depth = np.clip(surface_z - x[:, 2], 0.0, None)
+        rho = np.asarray(tait_density(1000.0 * GRAVITY * depth, 1000.0, c0, 7.0))
+    run_length = 1 if (periodic[0] or grid.shape[0] < 3) else 3
+    k, cell_cap = _capacities(h_factor, (cutoff + skin) / dx, run_length)
+    dt = stable_dt(params, scheme=scheme, viscosity=viscosity, cfl=cfl)
+    config = Config(
+        n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
+        rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap, scheme=scheme, kernel=kernel, viscosity=viscosity,
+        wall_model=wall_model, density_diffusion=density_diffusion, cfl=cfl,
+    )
+    state = make_state(config=config, x=x, kind=kind, vol=vol, rho=rho)
+    meta = dict(meta, name=name, dx=dx)
+    return Scene(config=config, params=params, state=state, meta=meta)

@@ -1,0 +1,124 @@
+"""SPH smoothing kernels in 3D, all with compact support radius ``R = 2h``.
+
+Each kernel is a pair of functions of the distance ``r`` [m] and smoothing length ``h`` [m]:
+
+* ``w(r, h)``: the kernel value W [1/m^3];
+* ``f(r, h)``: ``(dW/dr) / r`` [1/m^5], so that ``grad_i W(x_i - x_j) = f(r, h) * (x_i - x_j)``.
+  Writing the gradient this way keeps it finite at ``r = 0`` for smooth kernels.
+
+Kernels: Wendland C2 (default), cubic spline (M4), and the Mueller et al. (2003) set of the seed
+paper: poly6 for density (seed Eq 13), spiky for the pressure gradient (seed Eq 15), and the
+viscosity kernel whose Laplacian is seed Eq 19. The seed's "h" is the support radius, here ``2h``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax.numpy as jnp
+
+from ..types import KernelKind
+
+__all__ = [
+    "SUPPORT_FACTOR",
+    "wendland_c2",
+    "wendland_c2_f",
+    "cubic_spline",
+    "cubic_spline_f",
+    "poly6",
+    "poly6_f",
+    "spiky",
+    "spiky_f",
+    "viscosity_kernel",
+    "viscosity_laplacian",
+    "kernel_pair",
+]
+
+#: support radius / smoothing length for every kernel here
+SUPPORT_FACTOR = 2.0
+
+
+def wendland_c2(r, h):
+    """Wendland C2 in 3D: ``21/(16 pi h^3) (1 - q/2)^4 (2q + 1)``, q = r/h < 2."""
+    q = r / h
+    t = jnp.clip(1.0 - 0.5 * q, 0.0, None)
+    return (21.0 / (16.0 * math.pi)) / h**3 * t**4 * (2.0 * q + 1.0)
+
+
+def wendland_c2_f(r, h):
+    """(dW/dr)/r of Wendland C2: ``-5 sigma (1 - q/2)^3 / h^2`` (finite at r = 0)."""
+    q = r / h
+    t = jnp.clip(1.0 - 0.5 * q, 0.0, None)
+    return -5.0 * (21.0 / (16.0 * math.pi)) / h**5 * t**3
+
+
+def cubic_spline(r, h):
+    """Cubic spline (Monaghan & Lattanzio 1985) in 3D, sigma = 1/(pi h^3)."""
+    q = r / h
+    s = 1.0 / (math.pi * h**3)
+    inner = 1.0 - 1.5 * q**2 + 0.75 * q**3
+    outer = 0.25 * jnp.clip(2.0 - q, 0.0, None) ** 3
+    return s * jnp.where(q < 1.0, inner, outer)
+
+
+def cubic_spline_f(r, h):
+    """(dW/dr)/r of the cubic spline."""
+    q = r / h
+    s = 1.0 / (math.pi * h**5)
+    inner = -3.0 + 2.25 * q
+    q_safe = jnp.where(q < 1.0, 1.0, q)
+    outer = -0.75 * jnp.clip(2.0 - q_safe, 0.0, None) ** 2 / q_safe
+    return s * jnp.where(q < 1.0, inner, outer)
+
+
+def poly6(r, h):
+    """Mueller poly6 (seed Eq 13) with support R = 2h: ``315/(64 pi R^9) (R^2 - r^2)^3``."""
+    R = SUPPORT_FACTOR * h
+    t = jnp.clip(R * R - r * r, 0.0, None)
+    return 315.0 / (64.0 * math.pi) / R**9 * t**3
+
+
+def poly6_f(r, h):
+    """(dW/dr)/r of poly6: ``-6 * 315/(64 pi R^9) (R^2 - r^2)^2``."""
+    R = SUPPORT_FACTOR * h
+    t = jnp.clip(R * R - r * r, 0.0, None)
+    return -6.0 * 315.0 / (64.0 * math.pi) / R**9 * t**2
+
+
+def spiky(r, h):
+    """Desbrun's spiky kernel with support R = 2h: ``15/(pi R^6) (R - r)^3``."""
+    R = SUPPORT_FACTOR * h
+    t = jnp.clip(R - r, 0.0, None)
+    return 15.0 / math.pi / R**6 * t**3
+
+
+def spiky_f(r, h):
+    """(dW/dr)/r of spiky, i.e. seed Eq 15 divided by r: ``-45/(pi R^6) (R - r)^2 / r``.
+
+    Singular as 1/r at r = 0; callers pass a safe, positive r and mask coincident pairs.
+    """
+    R = SUPPORT_FACTOR * h
+    t = jnp.clip(R - r, 0.0, None)
+    return -45.0 / math.pi / R**6 * t**2 / r
+
+
+def viscosity_kernel(r, h):
+    """Mueller's viscosity kernel (support R = 2h), for tests of its Laplacian."""
+    R = SUPPORT_FACTOR * h
+    val = -(r**3) / (2 * R**3) + r**2 / R**2 + R / (2 * r) - 1.0
+    return jnp.where(r < R, 15.0 / (2 * math.pi * R**3) * val, 0.0)
+
+
+def viscosity_laplacian(r, h):
+    """Laplacian of the viscosity kernel (seed Eq 19): ``45/(pi R^6) (R - r)``."""
+    R = SUPPORT_FACTOR * h
+    return 45.0 / math.pi / R**6 * jnp.clip(R - r, 0.0, None)
+
+
+def kernel_pair(kind: KernelKind):
+    """The (w, f) pair of a WCSPH kernel choice."""
+    if kind == KernelKind.WENDLAND_C2:
+        return wendland_c2, wendland_c2_f
+    if kind == KernelKind.CUBIC_SPLINE:
+        return cubic_spline, cubic_spline_f
+    raise ValueError(f"unknown kernel {kind!r}")

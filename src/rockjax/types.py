@@ -1,0 +1,358 @@
+"""The three pytrees every stage shares: ``Config`` (static), ``Params`` (calibratable), ``State``.
+
+* ``Config`` is a frozen, hashable dataclass: counts, capacities, scheme enums, the time step,
+  the neighbour grid. It is a static argument of ``jax.jit``; changing it recompiles.
+* ``Params`` holds every physical constant a user may calibrate or sweep, as array leaves:
+  ``jax.grad(loss)(params)`` and ``jax.vmap(f, in_axes=(None, 0))`` work on it as is.
+* ``State`` holds positions, velocities, densities, the neighbour list and a status bit-field.
+  Every array has a fixed shape; padding particles (``Kind.PAD``) are inert.
+
+Units are SI throughout; z points up.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+from typing import Optional
+
+import jax
+import jax.numpy as jnp
+
+__all__ = [
+    "Scheme",
+    "KernelKind",
+    "Viscosity",
+    "WallModel",
+    "DensityDiffusion",
+    "Kind",
+    "Status",
+    "GridSpec",
+    "Config",
+    "FluidParams",
+    "Params",
+    "Particles",
+    "NeighbourList",
+    "State",
+    "float_dtype",
+]
+
+
+# --------------------------------------------------------------------------------------------
+# Scheme choices (enums, not strings)
+# --------------------------------------------------------------------------------------------
+
+
+class Scheme(enum.Enum):
+    """Which SPH scheme advances the fluid."""
+
+    SEED = "seed"  #: Mikola & Sitar (2013): density summation, p = k(rho - rho0), Mueller kernels, symplectic Euler
+    WCSPH = "wcsph"  #: continuity + delta-SPH, Tait EOS, kick-drift-kick (default)
+
+
+class KernelKind(enum.Enum):
+    """Smoothing kernel of the WCSPH scheme (the seed scheme always uses the Mueller et al. set)."""
+
+    WENDLAND_C2 = "wendland_c2"
+    CUBIC_SPLINE = "cubic_spline"
+
+
+class Viscosity(enum.Enum):
+    """Viscous term of the WCSPH scheme."""
+
+    ARTIFICIAL = "artificial"  #: Monaghan (1992), coefficient ``Params.fluid.alpha``
+    LAMINAR = "laminar"  #: Morris et al. (1997) / Lo & Shao (2002), kinematic viscosity ``Params.fluid.nu``
+
+
+class WallModel(enum.Enum):
+    """How wall particles get their pressure and density."""
+
+    ADAMI = "adami"  #: generalised wall condition, Adami, Hu & Adams (2012)
+    DYNAMIC = "dynamic"  #: dynamic boundary particles (Crespo et al. 2007, as in DualSPHysics)
+
+
+class DensityDiffusion(enum.Enum):
+    """Density-diffusion (delta-SPH) term of the WCSPH continuity equation."""
+
+    NONE = "none"
+    MOLTENI = "molteni"  #: Molteni & Colagrossi (2009)
+    FOURTAKAS = "fourtakas"  #: Fourtakas et al. (2019): Molteni minus the hydrostatic part
+
+
+class Kind(enum.IntEnum):
+    """Particle kind, stored per particle in ``Particles.kind`` (int32)."""
+
+    PAD = -1  #: padding slot: never a neighbour, never moves
+    FLUID = 0
+    WALL = 1  #: fixed boundary particle
+
+
+class Status(enum.IntFlag):
+    """Bits of ``State.status``, set inside jit and checked by the host driver after each chunk."""
+
+    OK = 0
+    NEIGHBOUR_OVERFLOW = 1  #: a particle has more neighbours than ``Config.neighbour_capacity``
+    CELL_OVERFLOW = 2  #: a run of grid cells holds more particles than ``Config.cell_capacity``
+    NEIGHBOUR_STALE = 4  #: a particle moved more than skin/2 since the last list build
+    NON_FINITE = 8  #: NaN or Inf in positions, velocities or densities
+    OUT_OF_DOMAIN = 16  #: a particle left the neighbour grid (non-periodic axis)
+    UNSTABLE_DT = 32  #: dt exceeds the CFL / viscous / force limit for the current state
+
+    @classmethod
+    def growable(cls) -> "Status":
+        """Bits that the driver cures by growing a buffer (or rebuilding more often) and rerunning."""
+        return cls.NEIGHBOUR_OVERFLOW | cls.CELL_OVERFLOW | cls.NEIGHBOUR_STALE
+
+    @classmethod
+    def describe(cls, bits: int) -> str:
+        names = [b.name for b in cls if b.value and (int(bits) & b.value)]
+        return ", ".join(names) if names else "OK"
+
+
+def float_dtype():
+    """float64 when ``jax_enable_x64`` is on, else float32."""
+    return jnp.float64 if jax.config.jax_enable_x64 else jnp.float32
+
+
+# --------------------------------------------------------------------------------------------
+# Config (static)
+# --------------------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class GridSpec:
+    """Uniform cell grid covering the simulation domain.
+
+    The domain is ``[origin, origin + shape * cell_size)`` per axis. Along a periodic axis that
+    length is the period. Cells are numbered x-fastest: ``id = ix + nx * (iy + ny * iz)``.
+    """
+
+    origin: tuple[float, float, float]
+    cell_size: tuple[float, float, float]
+    shape: tuple[int, int, int]
+    periodic: tuple[bool, bool, bool] = (False, False, False)
+
+    @property
+    def n_cells(self) -> int:
+        return int(self.shape[0] * self.shape[1] * self.shape[2])
+
+    @property
+    def lengths(self) -> tuple[float, float, float]:
+        return tuple(float(c * n) for c, n in zip(self.cell_size, self.shape))  # type: ignore[return-value]
+
+    @property
+    def upper(self) -> tuple[float, float, float]:
+        return tuple(o + L for o, L in zip(self.origin, self.lengths))  # type: ignore[return-value]
+
+    @staticmethod
+    def covering(lo, hi, *, min_cell: float, periodic=(False, False, False)) -> "GridSpec":
+        """The grid over the box ``[lo, hi]`` with cells at least ``min_cell`` wide.
+
+        Along a periodic axis the box length is the period and must hold at least 2 cells' worth
+        of ``min_cell`` (the minimum-image convention needs period >= 2 * search radius).
+        """
+        origin, cell, shape = [], [], []
+        for ax in range(3):
+            length = float(hi[ax]) - float(lo[ax])
+            if length <= 0:
+                raise ValueError(f"grid: upper bound must exceed lower bound on axis {ax} (got {lo[ax]}..{hi[ax]})")
+            if periodic[ax]:
+                n = int(math.floor(length / min_cell + 1e-9))
+                if n < 2:
+                    raise ValueError(
+                        f"grid: periodic axis {ax} has length {length:.4g} m but the neighbour search radius is "
+                        f"{min_cell:.4g} m; the period must be at least twice the radius ({2 * min_cell:.4g} m). "
+                        "Make the domain wider along that axis or use a smaller dx."
+                    )
+                origin.append(float(lo[ax]))
+                cell.append(length / n)
+                shape.append(n)
+            else:
+                n = max(int(math.ceil(length / min_cell - 1e-9)), 1)
+                origin.append(float(lo[ax]))
+                cell.append(float(min_cell))
+                shape.append(n)
+        return GridSpec(tuple(origin), tuple(cell), tuple(shape), tuple(bool(p) for p in periodic))  # type: ignore[arg-type]
+
+
+@dataclasses.dataclass(frozen=True)
+class Config:
+    """Static description of a simulation. Hashable; a static argument of jit.
+
+    Attributes:
+        n_fluid: length of the fluid segment ``[0, n_fluid)`` of the particle arrays (fluid + padding).
+        n_wall: length of the wall segment ``[n_fluid, n_fluid + n_wall)`` (fixed wall particles).
+        dt: time step [s]; never depends on a differentiated parameter.
+        grid: neighbour grid (its cells are at least ``cutoff + skin`` wide).
+        cutoff: the largest kernel support the list serves [m]; ``kernel_support(params) <= cutoff``.
+        skin: Verlet skin [m]; the list holds pairs closer than ``cutoff + skin``.
+        rebuild_every: the list is rebuilt (and particles re-sorted by cell) every this many steps.
+        neighbour_capacity: K, neighbours kept per fluid-segment particle.
+        cell_capacity: the most particles a run of ``run_length`` consecutive x-cells may hold.
+        scheme, kernel, viscosity, wall_model, density_diffusion: scheme choices.
+        gamma: Tait exponent (WCSPH).
+        cfl: Courant number used for the host time step and the in-jit stability check.
+    """
+
+    n_fluid: int
+    n_wall: int
+    dt: float
+    grid: GridSpec
+    cutoff: float
+    skin: float
+    rebuild_every: int = 10
+    neighbour_capacity: int = 96
+    cell_capacity: int = 96
+    scheme: Scheme = Scheme.WCSPH
+    kernel: KernelKind = KernelKind.WENDLAND_C2
+    viscosity: Viscosity = Viscosity.ARTIFICIAL
+    wall_model: WallModel = WallModel.ADAMI
+    density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS
+    gamma: float = 7.0
+    cfl: float = 0.25
+
+    def __post_init__(self):
+        # Host-side checks of the static description; scene builders catch most problems earlier.
+        if self.n_fluid < 0 or self.n_wall < 0 or self.n_fluid + self.n_wall < 1:
+            raise ValueError(f"Config.n_fluid / n_wall must be >= 0 with at least one particle (got {self.n_fluid}, {self.n_wall})")
+        if not (self.dt > 0 and math.isfinite(self.dt)):
+            raise ValueError(f"Config.dt must be a positive finite time step in seconds (got {self.dt})")
+        if self.rebuild_every < 1:
+            raise ValueError(f"Config.rebuild_every must be >= 1 (got {self.rebuild_every})")
+        if min(self.neighbour_capacity, self.cell_capacity) < 1:
+            raise ValueError("Config.neighbour_capacity and cell_capacity must be >= 1")
+        if self.skin < 0:
+            raise ValueError(f"Config.skin must be >= 0 (got {self.skin})")
+        min_cell = min(c for c, n, p in zip(self.grid.cell_size, self.grid.shape, self.grid.periodic))
+        if min_cell < self.cutoff + self.skin - 1e-12:
+            raise ValueError(
+                f"Config.grid: cells ({min_cell:.4g} m) must be at least cutoff + skin = "
+                f"{self.cutoff + self.skin:.4g} m wide; build the grid with GridSpec.covering(min_cell=cutoff + skin)"
+            )
+
+    @property
+    def n_particles(self) -> int:
+        """N = n_fluid + n_wall."""
+        return self.n_fluid + self.n_wall
+
+    @property
+    def list_radius(self) -> float:
+        """Pairs closer than this are kept in the Verlet list [m]."""
+        return self.cutoff + self.skin
+
+    @property
+    def run_length(self) -> int:
+        """Consecutive x-cells searched as one contiguous range of the sorted particles."""
+        return 1 if (self.grid.periodic[0] or self.grid.shape[0] < 3) else 3
+
+    def replace(self, **changes) -> "Config":
+        return dataclasses.replace(self, **changes)
+
+
+# --------------------------------------------------------------------------------------------
+# Params (differentiable)
+# --------------------------------------------------------------------------------------------
+
+
+def _pytree_dataclass(cls):
+    """Freeze ``cls`` and register it as a pytree whose fields are all data (array) leaves."""
+    cls = dataclasses.dataclass(frozen=True)(cls)
+    names = [f.name for f in dataclasses.fields(cls)]
+    jax.tree_util.register_dataclass(cls, data_fields=names, meta_fields=[])
+    cls.replace = lambda self, **kw: dataclasses.replace(self, **kw)
+    return cls
+
+
+@_pytree_dataclass
+class FluidParams:
+    """Physical constants of the water (all scalar arrays).
+
+    Attributes:
+        rho0: rest density [kg/m^3].
+        c0: numerical speed of sound [m/s] (Tait B = rho0 c0^2 / gamma; seed k = c0^2).
+        h: smoothing length [m]; kernel support is 2h (``kernel_support``).
+        alpha: Monaghan artificial-viscosity coefficient [-] (WCSPH, ``Viscosity.ARTIFICIAL``).
+        nu: kinematic viscosity [m^2/s] (WCSPH laminar term; seed Eq 18 with mu = rho0 nu).
+        delta: delta-SPH density-diffusion coefficient [-].
+    """
+
+    rho0: jax.Array
+    c0: jax.Array
+    h: jax.Array
+    alpha: jax.Array
+    nu: jax.Array
+    delta: jax.Array
+
+
+@_pytree_dataclass
+class Params:
+    """Everything a user may calibrate or sweep. ``gravity`` is a [3] vector [m/s^2]."""
+
+    gravity: jax.Array
+    fluid: Optional[FluidParams] = None
+
+
+# --------------------------------------------------------------------------------------------
+# State (dynamic)
+# --------------------------------------------------------------------------------------------
+
+
+@_pytree_dataclass
+class Particles:
+    """Per-particle arrays, leading dimension N (sorted by grid cell at each list rebuild).
+
+    Attributes:
+        x: positions [N, 3] m.       v: velocities [N, 3] m/s.       a: accelerations [N, 3] m/s^2.
+        rho: density [N] kg/m^3.     drho_dt: density rate [N] kg/m^3/s.   p: pressure [N] Pa.
+        vol: reference volume dx^3 [N] m^3 (mass = rho0 * vol).
+        kind: ``Kind`` codes [N] int32.   pid: original particle index [N] int32 (for output).
+    """
+
+    x: jax.Array
+    v: jax.Array
+    a: jax.Array
+    rho: jax.Array
+    drho_dt: jax.Array
+    p: jax.Array
+    vol: jax.Array
+    kind: jax.Array
+    pid: jax.Array
+
+
+@_pytree_dataclass
+class NeighbourList:
+    """Verlet lists. ``idx[i, k]`` is a neighbour of fluid row i, or i itself in unused slots.
+
+    Attributes:
+        idx: [n_fluid, K] int32, fluid and wall neighbours of each fluid-segment particle.
+            Wall particles have no rows: what they need is a transpose of the fluid rows.
+        x_ref: [N, 3] positions at the last build (for the skin check) m.
+        max_count: the largest neighbour count seen at the builds since the driver reset it.
+        max_run: the fullest run of cells seen (compare with ``Config.cell_capacity``).
+    """
+
+    idx: jax.Array
+    x_ref: jax.Array
+    max_count: jax.Array
+    max_run: jax.Array
+
+
+@_pytree_dataclass
+class State:
+    """Everything that changes in time.
+
+    Attributes:
+        step: step counter (int32 scalar); the time is ``step * config.dt``.
+        particles: the SPH particles (fluid, walls, padding).
+        nbrs: the Verlet neighbour list.
+        status: ``Status`` bits (int32 scalar), OR-ed over the steps since the driver cleared it.
+    """
+
+    step: jax.Array
+    particles: Particles
+    nbrs: NeighbourList
+    status: jax.Array
+
+    def time(self, config: Config) -> jax.Array:
+        return self.step * config.dt
