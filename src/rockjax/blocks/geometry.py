@@ -375,7 +375,9 @@ class ConvexPolyhedron:
         convex and drops corners made redundant by a merge. Facets coplanar
         within round-off are always merged; angles below ~1e-8 rad (the
         resolution of a cosine) are merged whenever ``angle_tol > 0``, while
-        ``angle_tol = 0`` keeps only Qhull's round-off merging (option C-0).  Merged faces are planar to about
+        ``angle_tol = 0`` keeps only Qhull's round-off merging (option C-0),
+        which is also the fallback when angle merging fails on an extremely
+        thin point set (thickness / size below about ``angle_tol``).  Merged faces are planar to about
         ``angle_tol * size``; ``face_offset`` is the support value
         ``max_v n . v`` so every vertex satisfies ``n . x <= d`` exactly.
         For meshes exported in float32, ``angle_tol ~ 1e-4`` is more suitable.
@@ -422,13 +424,24 @@ class ConvexPolyhedron:
         # Qt (always on in scipy) triangulates each merged facet, all its
         # triangles sharing the facet's hyperplane. The points are centred
         # first because Qhull's round-off bounds scale with max |coordinate|.
-        options = "C-0"
+        centred = pts - pts.mean(axis=0)
+        hull = None
         if angle_tol > 0.0:
-            options += f" A-{float(np.cos(angle_tol))!r}"
-        try:
-            hull = scipy.spatial.ConvexHull(pts - pts.mean(axis=0), qhull_options=options)
-        except _QhullError as exc:  # pragma: no cover - flat cases caught above
-            raise ValueError(f"convex hull failed (degenerate point set?): {exc}") from exc
+            try:
+                hull = scipy.spatial.ConvexHull(
+                    centred, qhull_options=f"C-0 A-{float(np.cos(angle_tol))!r}"
+                )
+            except _QhullError:
+                # angle pre-merging can over-merge extremely thin point sets
+                # (thickness / size below ~angle_tol); use round-off merging only
+                hull = None
+        if hull is None:
+            try:
+                hull = scipy.spatial.ConvexHull(centred, qhull_options="C-0")
+            except _QhullError as exc:  # pragma: no cover - flat cases caught above
+                raise ValueError(
+                    f"convex hull failed (degenerate point set?): {exc}"
+                ) from exc
         if hull.volume <= tol * size**3:
             raise ValueError(
                 f"degenerate point set: convex hull volume {hull.volume:.3e} m^3 is "
@@ -773,11 +786,12 @@ def _build(pts: np.ndarray, loops: list[list[int]], *, tol: float) -> ConvexPoly
     # max_v n . v over all vertices, so that n . x <= d holds for the whole
     # block exactly (faces merged within angle_tol may be non-planar by
     # ~angle_tol * size; exact faces are planar to rounding).
+    # Newell's sum is taken about the face's first vertex: differences of
+    # nearby points are exact, which keeps thin (sliver) faces accurate.
     normals = np.zeros((F, 3))
     for f, loop in enumerate(loops):
-        p = verts[loop]
-        q = np.roll(p, -1, axis=0)
-        n = np.cross(p, q).sum(axis=0)
+        p = pts[used][loop] - pts[used][loop[0]]
+        n = np.cross(p, np.roll(p, -1, axis=0)).sum(axis=0)
         normals[f] = n / np.linalg.norm(n)
     offsets = np.max(verts @ normals.T, axis=0)
 

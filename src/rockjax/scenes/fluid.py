@@ -36,7 +36,7 @@ def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width:
               viscosity: Viscosity = Viscosity.ARTIFICIAL, wall_model: WallModel = WallModel.ADAMI,
               density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS,
               h_factor: float = 1.3, c0: float | None = None, alpha: float | None = None, nu: float | None = None,
-              delta: float = 0.1, skin_factor: float = 0.5, rebuild_every: int = 10, cfl: float = 0.25) -> Scene:
+              delta: float = 0.1, skin_factor: float = 0.6, rebuild_every: int = 8, cfl: float = 0.25) -> Scene:
     """A water column collapsing in a tank (3D; with ``periodic_y`` a 2D slab).
 
     The column occupies ``[0, column_length] x [0, column_width] x [0, column_height]`` in the
@@ -91,7 +91,7 @@ def hydrostatic_tank(*, dx: float = 0.02, length: float = 0.2, width: float = 0.
                      wall_model: WallModel = WallModel.ADAMI,
                      density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS, h_factor: float = 1.3,
                      c0: float | None = None, alpha: float | None = None, nu: float | None = None,
-                     delta: float = 0.1, skin_factor: float = 0.5, rebuild_every: int = 10,
+                     delta: float = 0.1, skin_factor: float = 0.6, rebuild_every: int = 8,
                      cfl: float = 0.25) -> Scene:
     """Still water of ``depth`` [m] in a closed-bottom tank ``length x width`` [m] (open top).
 

@@ -1,0 +1,229 @@
+"""The host driver: ``simulate(scene, t_end=...)`` runs jitted chunks, checks status bits after
+each, regrows buffers and reruns a chunk on overflow, raises on fatal problems with the step and
+the cause, writes frames (HDF5 or memory) and shows progress.
+
+A chunk is the steps between two output frames, a whole number of neighbour-list blocks
+(``rebuild_every`` steps), run by ``rollout.make_rollout`` without checkpointing.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import sys
+import time
+from typing import Optional
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .rollout import make_rollout
+from .scenes.base import Scene, check_params, empty_neighbours
+from .step import prime
+from .types import Config, Kind, State, Status
+
+__all__ = ["simulate", "Result", "SimulationError", "host_frame", "resize"]
+
+
+class SimulationError(RuntimeError):
+    """A run stopped on a fatal status bit; ``step`` and ``status`` say where and why."""
+
+    def __init__(self, message: str, *, step: int, status: int):
+        super().__init__(message)
+        self.step = step
+        self.status = status
+
+
+@dataclasses.dataclass
+class Result:
+    """What ``simulate`` returns.
+
+    Attributes:
+        scene: the scene actually run (its config may have grown capacities).
+        state: the final state.
+        times: [F] frame times s.
+        frames: dict of stacked host arrays in original particle order (``x`` [F, N, 3], ``v``,
+            ``rho``, ``p``, ``kind``), or None when frames went only to a file.
+        path: the HDF5 file written, if any.
+        stats: wall time, steps, regrows.
+    """
+
+    scene: Scene
+    state: State
+    times: np.ndarray
+    frames: Optional[dict]
+    path: Optional[str]
+    stats: dict
+
+
+def host_frame(state: State) -> dict:
+    """Host copy of the particle fields, in original particle order (undoing the cell sort)."""
+    P = jax.device_get(state.particles)
+    order = np.argsort(P.pid)
+    return {"x": P.x[order], "v": P.v[order], "rho": P.rho[order], "p": P.p[order], "kind": P.kind[order]}
+
+
+def resize(state: State, config: Config) -> State:
+    """The state with its neighbour buffers shaped for ``config`` (contents rebuilt at next refresh)."""
+    return state.replace(nbrs=empty_neighbours(config, state.particles.x), status=jnp.zeros((), jnp.int32))
+
+
+@functools.lru_cache(maxsize=32)
+def _compiled_chunk(config: Config, n_blocks: int):
+    run = make_rollout(config, n_blocks, checkpoint=False)
+    return jax.jit(lambda s, p: run(s, p)[0])
+
+
+@functools.lru_cache(maxsize=32)
+def _compiled_prime(config: Config):
+    return jax.jit(lambda s, p: prime(s, p, config))
+
+
+def _round8(n: float) -> int:
+    return int(math.ceil(n / 8.0) * 8)
+
+
+def _grow(config: Config, state: State, bits: int) -> Config:
+    changes = {}
+    if bits & Status.NEIGHBOUR_OVERFLOW:
+        changes["neighbour_capacity"] = max(_round8(1.2 * int(state.nbrs.max_count)), config.neighbour_capacity + 8)
+    if bits & Status.CELL_OVERFLOW:
+        changes["cell_capacity"] = max(_round8(1.2 * int(state.nbrs.max_run)), config.cell_capacity + 8)
+    if bits & Status.NEIGHBOUR_STALE:
+        if config.rebuild_every == 1:
+            raise SimulationError("neighbour list stale with a rebuild every step: particles move more than "
+                                  "skin/2 per step; the time step is too large", step=int(state.step), status=bits)
+        changes["rebuild_every"] = max(1, config.rebuild_every // 2)
+    return config.replace(**changes)
+
+
+def _clear(state: State) -> State:
+    zero = jnp.zeros((), jnp.int32)
+    return state.replace(status=zero, nbrs=state.nbrs.replace(max_count=zero, max_run=zero))
+
+
+def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt: Optional[float] = None,
+             keep_frames: Optional[bool] = None, progress: Optional[bool] = None, max_regrows: int = 8) -> Result:
+    """Run ``scene`` to ``t_end`` [s] (rounded up to a whole output frame).
+
+    Args:
+        t_end: end time s.
+        out: HDF5 path to write frames to (chunk by chunk), or None.
+        frame_dt: output interval s (default: ~50 frames over the run).
+        keep_frames: keep frames in memory (default: when ``out`` is None).
+        progress: show a progress bar (default: when stderr is a terminal).
+        max_regrows: how many buffer regrowths to try before giving up.
+
+    Raises:
+        ValueError: params the config cannot run (checked on the host before the first step).
+        SimulationError: a fatal status bit (non-finite values, particles off the grid, unstable dt).
+    """
+    config, params, state = scene.config, scene.params, scene.state
+    if not (t_end > 0 and math.isfinite(t_end)):
+        raise ValueError(f"simulate: t_end must be a positive time in seconds (got {t_end})")
+    check_params(config, params)
+    frame_dt = t_end / 50 if frame_dt is None else float(frame_dt)
+    if frame_dt <= 0:
+        raise ValueError(f"simulate: frame_dt must be positive (got {frame_dt})")
+    keep_frames = out is None if keep_frames is None else keep_frames
+    progress = sys.stderr.isatty() if progress is None else progress
+
+    steps_per_frame = max(1, round(frame_dt / config.dt))
+    blocks = max(1, math.ceil(steps_per_frame / config.rebuild_every))
+    n_frames = max(1, math.ceil(t_end / (blocks * config.rebuild_every * config.dt)))
+
+    writer = None
+    if out is not None:
+        from .io.hdf5 import Writer
+
+        writer = Writer(out, scene)
+    frames: list[dict] = []
+    times: list[float] = []
+    regrows = 0
+    t0 = time.perf_counter()
+    state = _clear(_compiled_prime(config)(state, params))
+    bits = int(state.status)
+    if bits:
+        config, state, regrows = _handle(config, state, scene.state, params, bits, regrows, max_regrows, primed=False)
+
+    def record(s: State):
+        t = float(s.step) * config.dt
+        times.append(t)
+        frame = host_frame(s)
+        if keep_frames:
+            frames.append(frame)
+        if writer is not None:
+            writer.append(t, frame, int(s.status))
+
+    record(state)
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=n_frames, unit="frame", dynamic_ncols=True)
+    steps_done = 0
+    try:
+        frame = 0
+        while frame < n_frames:
+            n_blocks = max(1, math.ceil(steps_per_frame / config.rebuild_every))
+            new = _compiled_chunk(config, n_blocks)(state, params)
+            bits = int(new.status)
+            if bits:
+                config, state, regrows = _handle(config, new, state, params, bits, regrows, max_regrows)
+                continue
+            steps_done += n_blocks * config.rebuild_every
+            state = new
+            record(state)
+            frame += 1
+            if bar is not None:
+                elapsed = time.perf_counter() - t0
+                bar.set_postfix_str(f"t={times[-1]:.4g}s steps/s={steps_done / max(elapsed, 1e-9):.0f}")
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+        if writer is not None:
+            writer.close()
+    wall = time.perf_counter() - t0
+    stacked = None
+    if keep_frames:
+        stacked = {k: np.stack([f[k] for f in frames]) for k in frames[0]}
+    n_fluid = int(np.sum(np.asarray(scene.state.particles.kind) == Kind.FLUID))
+    stats = {"wall_s": wall, "steps": steps_done, "regrows": regrows, "n_fluid": n_fluid,
+             "particle_steps_per_s": n_fluid * steps_done / max(wall, 1e-9)}
+    return Result(scene=scene.replace(config=config, state=state), state=state, times=np.asarray(times),
+                  frames=stacked, path=out, stats=stats)
+
+
+def _handle(config, bad_state, start_state, params, bits, regrows, max_regrows, primed=True):
+    """Grow buffers for growable bits (returning the chunk's start state to rerun) or raise."""
+    fatal = bits & ~int(Status.growable())
+    if fatal:
+        step = int(bad_state.step)
+        raise SimulationError(
+            f"simulation stopped at step {step} (t = {step * config.dt:.6g} s): {Status.describe(fatal)}. "
+            + _advice(fatal), step=step, status=bits)
+    if regrows >= max_regrows:
+        raise SimulationError(f"gave up after {regrows} buffer regrowths ({Status.describe(bits)})",
+                              step=int(bad_state.step), status=bits)
+    config = _grow(config, bad_state, bits)
+    state = resize(start_state, config)
+    if not primed:
+        state = _clear(_compiled_prime(config)(state, params))
+        again = int(state.status)
+        if again:
+            return _handle(config, state, start_state, params, again, regrows + 1, max_regrows, primed=False)
+    return config, _clear(state), regrows + 1
+
+
+def _advice(bits: int) -> str:
+    tips = []
+    if bits & Status.NON_FINITE:
+        tips.append("NaN/Inf appeared: reduce dt or check Params (speed of sound, viscosity).")
+    if bits & Status.OUT_OF_DOMAIN:
+        tips.append("A particle left the domain: enlarge the domain (tank height/length) or check the inflow.")
+    if bits & Status.UNSTABLE_DT:
+        tips.append("The time step exceeds the CFL/viscous limit for the current speeds: reduce Config.dt or raise c0.")
+    return " ".join(tips)

@@ -1,0 +1,57 @@
+"""Reference data and metrics used by the physics tests and the experiments.
+
+``martin_moyce_n2_2()`` loads Martin & Moyce (1952), Table 2 (tall column n^2 = 2) from the
+project's ``data/validation`` copy (see that file's header for sources); ``dam_break_2d`` builds
+that experiment as a periodic slab and ``front_error`` compares a simulated front with it.
+"""
+
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+
+__all__ = ["data_dir", "martin_moyce_n2_2", "dam_break_2d", "front_history", "front_error"]
+
+
+def data_dir() -> pathlib.Path:
+    """The repository's ``data/validation`` directory (source checkout)."""
+    return pathlib.Path(__file__).resolve().parents[2] / "data" / "validation"
+
+
+def martin_moyce_n2_2(src: str = "T2"):
+    """(T, Z) arrays of the n^2 = 2 surge front, T = t sqrt(2 g / a), Z = z / a, 0 < T <= 3."""
+    path = data_dir() / "martin_moyce_1952_surge_front_n2_2.csv"
+    rows = [ln.split(",") for ln in path.read_text().splitlines() if ln and not ln.startswith("#")][1:]
+    T = np.array([float(r[0]) for r in rows if r[3].strip() == src])
+    Z = np.array([float(r[2]) for r in rows if r[3].strip() == src])
+    keep = (T > 0) & (T <= 3.0)
+    return T[keep], Z[keep]
+
+
+def dam_break_2d(*, a: float = 0.1, resolution: int = 20, **kwargs):
+    """Martin & Moyce's n^2 = 2 column (width a, height 2a) as a periodic slab, tank 5a long."""
+    from .scenes import dam_break
+
+    dx = a / resolution
+    width = 7 * dx
+    return dam_break(dx=dx, column_length=a, column_width=width, column_height=2 * a, tank_length=5 * a,
+                     tank_width=width, tank_height=3 * a, periodic_y=True, **kwargs)
+
+
+def front_history(result, *, a: float):
+    """(T, Z) of the simulated front from ``simulate`` frames: Z = (max x of fluid with z < 0.1 a + dx/2) / a."""
+    dx = result.scene.meta["dx"]
+    fluid = result.frames["kind"][0] == 0
+    x = result.frames["x"][:, fluid, :]
+    low = x[..., 2] < 0.1 * a
+    front = np.where(low, x[..., 0], -np.inf).max(axis=1) + 0.5 * dx
+    T = result.times * math.sqrt(2 * 9.81 / a)
+    return T, front / a
+
+
+def front_error(T_sim, Z_sim, T_ref, Z_ref, *, shift: float = 0.0) -> float:
+    """RMS relative error of Z_sim(T - shift), interpolated at the reference times."""
+    z = np.interp(T_ref - shift, T_sim, Z_sim)
+    return float(np.sqrt(np.mean(((z - Z_ref) / Z_ref) ** 2)))
