@@ -143,10 +143,11 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
     times: list[float] = []
     regrows = 0
     t0 = time.perf_counter()
-    state = _clear(_compiled_prime(config)(state, params))
+    state = _compiled_prime(config)(state, params)
     bits = int(state.status)
     if bits:
         config, state, regrows = _handle(config, state, scene.state, params, bits, regrows, max_regrows, primed=False)
+    state = _clear(state)
 
     def record(s: State):
         t = float(s.step) * config.dt
@@ -211,7 +212,7 @@ def _handle(config, bad_state, start_state, params, bits, regrows, max_regrows, 
     config = _grow(config, bad_state, bits)
     state = resize(start_state, config)
     if not primed:
-        state = _clear(_compiled_prime(config)(state, params))
+        state = _compiled_prime(config)(state, params)
         again = int(state.status)
         if again:
             return _handle(config, state, start_state, params, again, regrows + 1, max_regrows, primed=False)

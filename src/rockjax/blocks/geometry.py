@@ -372,14 +372,15 @@ class ConvexPolyhedron:
         Nearly coplanar hull facets (outward normals differing by less than
         about ``angle_tol``) are merged into one polygon face by Qhull's
         pre-merging (option ``A-cos(angle_tol)``), which keeps the result
-        convex and drops corners made redundant by a merge. Facets coplanar
-        within round-off are always merged; angles below ~1e-8 rad (the
-        resolution of a cosine) are merged whenever ``angle_tol > 0``, while
-        ``angle_tol = 0`` keeps only Qhull's round-off merging (option C-0),
-        which is also the fallback when angle merging fails on an extremely
-        thin point set (thickness / size below about ``angle_tol``).  Merged faces are planar to about
-        ``angle_tol * size``; ``face_offset`` is the support value
-        ``max_v n . v`` so every vertex satisfies ``n . x <= d`` exactly.
+        convex and drops corners made redundant by a merge.  The merge is
+        accepted only if it shrinks the volume by at most ``angle_tol``
+        (relative) and leaves every input point within ``angle_tol * size``
+        of the block; otherwise (e.g. very thin blocks) the hull with only
+        Qhull's round-off merging (option C-0) is used, as for
+        ``angle_tol = 0``.  Angles below ~1e-8 rad (the resolution of a
+        cosine) are always merged when ``angle_tol > 0``.  Merged faces are
+        planar to about ``angle_tol * size``; ``face_offset`` is the support
+        value ``max_v n . v``, so every vertex satisfies ``n . x <= d``.
         For meshes exported in float32, ``angle_tol ~ 1e-4`` is more suitable.
 
         Args:
@@ -425,30 +426,20 @@ class ConvexPolyhedron:
         # triangles sharing the facet's hyperplane. The points are centred
         # first because Qhull's round-off bounds scale with max |coordinate|.
         centred = pts - pts.mean(axis=0)
-        hull = None
-        if angle_tol > 0.0:
-            try:
-                hull = scipy.spatial.ConvexHull(
-                    centred, qhull_options=f"C-0 A-{float(np.cos(angle_tol))!r}"
-                )
-            except _QhullError:
-                # angle pre-merging can over-merge extremely thin point sets
-                # (thickness / size below ~angle_tol); use round-off merging only
-                hull = None
-        if hull is None:
-            try:
-                hull = scipy.spatial.ConvexHull(centred, qhull_options="C-0")
-            except _QhullError as exc:  # pragma: no cover - flat cases caught above
-                raise ValueError(
-                    f"convex hull failed (degenerate point set?): {exc}"
-                ) from exc
-        if hull.volume <= tol * size**3:
+        try:
+            exact = scipy.spatial.ConvexHull(centred, qhull_options="C-0")
+        except _QhullError as exc:  # pragma: no cover - flat cases caught above
+            raise ValueError(f"convex hull failed (degenerate point set?): {exc}") from exc
+        if exact.volume <= tol * size**3:
             raise ValueError(
-                f"degenerate point set: convex hull volume {hull.volume:.3e} m^3 is "
+                f"degenerate point set: convex hull volume {exact.volume:.3e} m^3 is "
                 f"zero within tolerance (size {size:.3e} m)"
             )
-        loops = _hull_polygons(pts, hull)
-        return _build(pts, loops, tol=tol)
+        if angle_tol > 0.0:
+            merged = _merged_hull(pts, centred, exact.volume, size, angle_tol)
+            if merged is not None:
+                return merged
+        return _build(pts, *_hull_polygons(pts, exact))
 
     @classmethod
     def from_trimesh(
@@ -602,6 +593,31 @@ class ConvexPolyhedron:
 # --------------------------------------------------------------------------
 
 
+def _merged_hull(pts, centred, exact_volume, size, angle_tol):
+    """Hull with angle pre-merging, or None if the merge distorts the shape.
+
+    Qhull's angle merging may drop corners that stick out by up to about
+    ``angle_tol * size``; for very thin point sets this can remove a large
+    fraction of the volume, or Qhull may fail. The merge is accepted only if
+    the volume shrinks by at most ``angle_tol`` (relative) and every input
+    point stays within ``angle_tol * size`` of the merged block.
+    """
+    try:
+        hull = scipy.spatial.ConvexHull(
+            centred, qhull_options=f"C-0 A-{float(np.cos(angle_tol))!r}"
+        )
+    except _QhullError:
+        return None
+    poly = _build(pts, *_hull_polygons(pts, hull))
+    lost = (exact_volume - poly.volume) / exact_volume
+    outside = np.max(
+        (pts - poly.centroid_world) @ poly.face_normal.T - poly.face_offset[None, :]
+    )
+    if lost > angle_tol or outside > angle_tol * size:
+        return None
+    return poly
+
+
 def _check_duplicates(pts: np.ndarray, radius: float, *, hint: str) -> None:
     tree = scipy.spatial.cKDTree(pts)
     pairs = tree.query_pairs(r=radius, output_type="ndarray")
@@ -624,8 +640,9 @@ def _check_not_flat(pts: np.ndarray, tol: float, *, what: str) -> None:
         )
 
 
-def _hull_polygons(pts: np.ndarray, hull) -> list[list[int]]:
-    """Polygon faces (loops of point indices, CCW from outside) of a qhull hull.
+def _hull_polygons(pts: np.ndarray, hull) -> tuple[list[list[int]], np.ndarray]:
+    """Polygon faces of a qhull hull: (loops of point indices CCW from outside,
+    [F, 3] outward unit normals of qhull's facet hyperplanes).
 
     Triangles of one (merged) qhull facet share the facet's hyperplane
     bitwise; each connected set of such triangles becomes one polygon.
@@ -690,7 +707,9 @@ def _hull_polygons(pts: np.ndarray, hull) -> list[list[int]]:
     # 3. Boundary loop of each group: directed edges whose reverse is not in
     #    the same group.
     loops: list[list[int]] = []
+    face_normals = np.zeros((n_groups, 3))
     for g in range(n_groups):
+        face_normals[g] = normals[np.argmax(group == g)]
         members = tri[group == g]
         dedges = {(int(t[k]), int(t[(k + 1) % 3])) for t in members for k in range(3)}
         boundary = [(u, w) for (u, w) in dedges if (w, u) not in dedges]
@@ -719,11 +738,14 @@ def _hull_polygons(pts: np.ndarray, hull) -> list[list[int]]:
     loops = [[p for p in loop if n_faces_at[p] >= 3] for loop in loops]
     if any(len(loop) < 3 for loop in loops):  # pragma: no cover
         raise RuntimeError("a hull face lost its corners while removing collinear points")
-    return loops
+    return loops, face_normals
 
 
-def _build(pts: np.ndarray, loops: list[list[int]], *, tol: float) -> ConvexPolyhedron:
-    """Assemble the half-edge table and mass properties from polygon loops."""
+def _build(pts: np.ndarray, loops: list[list[int]], normals: np.ndarray) -> ConvexPolyhedron:
+    """Assemble the half-edge table and mass properties from polygon loops.
+
+    ``normals`` [F, 3] are the outward unit normals of the faces.
+    """
     used = np.unique(np.concatenate([np.asarray(lp) for lp in loops]))
     remap = np.full(pts.shape[0], -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
@@ -782,17 +804,13 @@ def _build(pts: np.ndarray, loops: list[list[int]], *, tol: float) -> ConvexPoly
     for e in range(E - 1, -1, -1):
         vertex_first[he_vert[e]] = e
 
-    # face planes: Newell normal of the polygon; offset = support value
+    # face planes: the normal is Qhull's facet hyperplane (the one its
+    # convexity tests used; a Newell normal of a thin sliver facet can be far
+    # less consistent with the neighbours); the offset is the support value
     # max_v n . v over all vertices, so that n . x <= d holds for the whole
-    # block exactly (faces merged within angle_tol may be non-planar by
-    # ~angle_tol * size; exact faces are planar to rounding).
-    # Newell's sum is taken about the face's first vertex: differences of
-    # nearby points are exact, which keeps thin (sliver) faces accurate.
-    normals = np.zeros((F, 3))
-    for f, loop in enumerate(loops):
-        p = pts[used][loop] - pts[used][loop[0]]
-        n = np.cross(p, np.roll(p, -1, axis=0)).sum(axis=0)
-        normals[f] = n / np.linalg.norm(n)
+    # block (faces merged within angle_tol may be non-planar by
+    # ~angle_tol * size; exactly planar faces are planar to rounding).
+    normals = np.asarray(normals, dtype=np.float64)
     offsets = np.max(verts @ normals.T, axis=0)
 
     return ConvexPolyhedron(

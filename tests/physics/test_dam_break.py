@@ -1,0 +1,47 @@
+"""Dam break (Martin & Moyce 1952, tall column n^2 = 2) as a 2D periodic slab of the 3D code.
+
+Reference: data/validation/martin_moyce_1952_surge_front_n2_2.csv (Table 2, src T2; sources in
+its header and data/validation/SOURCES.md). Metric as in shared/peers: RMS relative error of
+Z(T) = front/a at the 13 reference times 0 < T <= 3, T = t sqrt(2 g / a), unshifted and after
+the best time shift (gate release). Peers on this machine (PySPH, SPlisHSPlasH, dx = a/25..a/80):
+0.08-0.13 unshifted, 0.026-0.030 shifted.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import rockjax as rj
+from rockjax.validation import dam_break_2d, front_error, front_history, martin_moyce_n2_2
+
+A = 0.1  # column width [m]
+RES = 10  # a / dx at test resolution
+
+
+def _errors(scheme):
+    scene = dam_break_2d(a=A, resolution=RES, scheme=scheme)
+    t_end = 3.05 / math.sqrt(2 * 9.81 / A)
+    result = rj.simulate(scene, t_end=t_end, frame_dt=t_end / 120, progress=False)
+    T, Z = front_history(result, a=A)
+    Tr, Zr = martin_moyce_n2_2()
+    unshifted = front_error(T, Z, Tr, Zr)
+    shifted = min(front_error(T, Z, Tr, Zr, shift=s) for s in np.arange(0, 0.41, 0.02))
+    print(f"{scheme.value}: front RMS rel. error {unshifted:.4f} unshifted, {shifted:.4f} best shift; "
+          f"Z at reference T: {np.round(np.interp(Tr, T, Z), 3).tolist()}")
+    return unshifted, shifted
+
+
+def test_wcsph_surge_front():
+    unshifted, shifted = _errors(rj.Scheme.WCSPH)
+    # Stated bounds at a/dx = 10 (measured 2026-11-23: 0.050 and 0.025).
+    assert unshifted < 0.10
+    assert shifted < 0.04
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="seed scheme not yet validated: measured front RMS error 0.40 "
+                   "(0.20 shifted) at a/dx = 10 with the list rebuilt every step; see the issue note")
+def test_seed_surge_front():
+    unshifted, shifted = _errors(rj.Scheme.SEED)
+    assert unshifted < 0.15

@@ -1,0 +1,73 @@
+"""Driver (regrow on overflow, fatal errors with the step), HDF5 round trip, CLI, host validation."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import rockjax as rj
+
+
+@pytest.fixture(scope="module")
+def small():
+    return rj.scenes.hydrostatic_tank(dx=0.05, length=0.2, width=0.2, depth=0.2)
+
+
+def test_regrows_neighbour_buffer_and_matches(small, tmp_path):
+    tight = small.replace(config=small.config.replace(neighbour_capacity=16))
+    ref = rj.simulate(small, t_end=0.02, frame_dt=0.01, progress=False)
+    grown = rj.simulate(tight, t_end=0.02, frame_dt=0.01, progress=False, out=str(tmp_path / "g.h5"), keep_frames=True)
+    assert grown.stats["regrows"] >= 1
+    assert grown.scene.config.neighbour_capacity >= int(ref.state.nbrs.max_count)
+    np.testing.assert_allclose(grown.frames["x"][-1], ref.frames["x"][-1], atol=1e-6)
+    run = rj.io.read(str(tmp_path / "g.h5"))
+    np.testing.assert_allclose(run.x, grown.frames["x"])
+    np.testing.assert_allclose(run.time, grown.times)
+    assert run.scene == "hydrostatic_tank" and run.config["scheme"] == "wcsph"
+    assert float(run.params["fluid/rho0"]) == 1000.0
+    assert run.x.shape == (len(run.time), small.config.n_particles, 3)
+
+
+def test_fatal_status_raises_with_step(small):
+    # Params that break the run under the fixed dt: refused on the host first ...
+    bad = small.replace(params=small.params.replace(fluid=small.params.fluid.replace(c0=small.params.fluid.c0 * 4)))
+    with pytest.raises(ValueError, match="stability limit"):
+        rj.simulate(bad, t_end=0.01, progress=False)
+    # ... and h beyond the neighbour cutoff too.
+    bad_h = small.replace(params=small.params.replace(fluid=small.params.fluid.replace(h=small.params.fluid.h * 1.5)))
+    with pytest.raises(ValueError, match="cutoff"):
+        rj.simulate(bad_h, t_end=0.01, progress=False)
+
+
+def test_out_of_domain_stops_with_step():
+    scene = rj.scenes.hydrostatic_tank(dx=0.05, length=0.2, width=0.2, depth=0.2)
+    P = scene.state.particles
+    v = P.v.at[0].set(np.array([0.0, 0.0, 40.0], np.float32))
+    scene = scene.replace(state=scene.state.replace(particles=P.replace(v=v)))
+    with pytest.raises(rj.SimulationError) as info:
+        rj.simulate(scene, t_end=0.05, frame_dt=0.01, progress=False)
+    assert info.value.step > 0
+    assert "OUT_OF_DOMAIN" in str(info.value) or "UNSTABLE_DT" in str(info.value)
+
+
+@pytest.mark.parametrize("kw,field", [({"dx": -1.0}, "dx"), ({"column_length": 3.0}, "column_length"),
+                                       ({"dx": 0.4}, "dx")])
+def test_bad_scene_input(kw, field):
+    with pytest.raises(ValueError, match=field):
+        rj.scenes.dam_break(**kw)
+
+
+def test_cli_list_and_run(tmp_path):
+    out = subprocess.run([sys.executable, "-m", "rockjax.cli", "list"], capture_output=True, text=True, check=True)
+    assert "dam_break" in out.stdout and "hydrostatic_tank" in out.stdout
+    h5 = tmp_path / "run.h5"
+    res = subprocess.run([sys.executable, "-m", "rockjax.cli", "run", "hydrostatic_tank", "--dx", "0.05",
+                          "--t-end", "0.01", "--out", str(h5), "--quiet"], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    summary = json.loads(res.stdout.strip().splitlines()[-1])
+    assert summary["scene"] == "hydrostatic_tank" and summary["steps"] > 0
+    assert rj.io.read(str(h5)).x.shape[0] >= 2
+    bad = subprocess.run([sys.executable, "-m", "rockjax.cli", "run", "nope"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "rockjax list" in bad.stderr

@@ -1,0 +1,119 @@
+"""Neighbour lists equal brute force (random clouds, periodic axes, near-empty and near-full
+cells); overflow is reported in the status bits, never silent."""
+
+import jax
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rockjax.scenes.base import empty_neighbours
+from rockjax.sph.neighbours import rebuild
+from rockjax.types import Config, GridSpec, Kind, Particles, Status
+
+
+def _particles(x, kind):
+    n = len(x)
+    z = np.zeros(n, np.float32)
+    return Particles(x=np.asarray(x, np.float32), v=np.zeros((n, 3), np.float32), a=np.zeros((n, 3), np.float32),
+                     rho=z + 1000, drho_dt=z, p=z, vol=z + 1e-6, kind=np.asarray(kind, np.int32),
+                     pid=np.arange(n, dtype=np.int32))
+
+
+def _brute(x, nf, radius, lengths, periodic):
+    out = []
+    for i in range(nf):
+        d = x - x[i]
+        for a in range(3):
+            if periodic[a]:
+                d[:, a] -= lengths[a] * np.round(d[:, a] / lengths[a])
+        r = np.linalg.norm(d, axis=1)
+        out.append(set(np.nonzero(r < radius)[0]) - {i})
+    return out
+
+
+_jit_rebuild = jax.jit(rebuild, static_argnums=1)
+
+
+def _check(x, n_fluid, periodic, radius=0.1, K=64, C=64, box=(1.0, 0.6, 0.5), pad_kinds=None):
+    x = np.asarray(x, np.float64)
+    grid = GridSpec.covering((0, 0, 0), box, min_cell=radius, periodic=periodic)
+    kind = np.array([Kind.FLUID] * n_fluid + [Kind.WALL] * (len(x) - n_fluid), np.int32)
+    if pad_kinds is not None:
+        kind[pad_kinds] = Kind.PAD
+    cfg = Config(n_fluid=n_fluid, n_wall=len(x) - n_fluid, dt=1e-4, grid=grid, cutoff=radius, skin=0.0,
+                 neighbour_capacity=K, cell_capacity=C)
+    P, nbrs, status = _jit_rebuild(_particles(x, kind), cfg)
+    xs = np.asarray(P.x, np.float64)
+    idx = np.asarray(nbrs.idx)
+    kinds = np.asarray(P.kind)
+    expected = _brute(xs, n_fluid, radius, grid.lengths, periodic)
+    return cfg, xs, idx, kinds, expected, int(status), int(nbrs.max_count)
+
+
+@settings(max_examples=12, deadline=None)
+@given(seed=st.integers(0, 10_000), periodic_y=st.booleans(), periodic_x=st.booleans(),
+       n=st.integers(5, 150), n_wall=st.integers(0, 60))
+def test_matches_brute_force(seed, periodic_y, periodic_x, n, n_wall):
+    rng = np.random.default_rng(seed)
+    box = np.array([1.0, 0.6, 0.5])
+    x = rng.uniform(0, 1, (n + n_wall, 3)) * box
+    periodic = (periodic_x, periodic_y, False)
+    cfg, xs, idx, kinds, expected, status, _ = _check(x, n, periodic, box=tuple(box))
+    assert status == 0, Status.describe(status)
+    for i in range(n):
+        got = set(idx[i].tolist()) - {i}
+        # distances computed in float32 on device: ignore pairs within 1e-5 of the radius
+        d = xs[list(got ^ expected[i])] - xs[i] if got ^ expected[i] else np.zeros((0, 3))
+        for a in range(3):
+            if periodic[a] and len(d):
+                d[:, a] -= cfg.grid.lengths[a] * np.round(d[:, a] / cfg.grid.lengths[a])
+        assert np.all(np.abs(np.linalg.norm(d, axis=1) - 0.1) < 1e-5), (i, got ^ expected[i])
+
+
+def test_clustered_cells_and_padding():
+    """Many particles in one cell (near-full), isolated ones (near-empty), padding never listed."""
+    rng = np.random.default_rng(0)
+    cluster = 0.3 + 0.02 * rng.uniform(size=(40, 3))
+    lone = np.array([[0.9, 0.5, 0.45], [0.05, 0.05, 0.05]])
+    walls = rng.uniform(0, 1, (30, 3)) * [1.0, 0.6, 0.5]
+    x = np.concatenate([cluster, lone, walls])
+    pads = [3, 7]
+    cfg, xs, idx, kinds, expected, status, max_count = _check(x, 42, (False, False, False), pad_kinds=pads)
+    assert status == 0
+    pad_rows = set(np.nonzero(kinds == Kind.PAD)[0].tolist())
+    for i in range(42):
+        got = set(idx[i].tolist()) - {i}
+        if i in pad_rows:
+            continue
+        assert got == expected[i] - pad_rows
+        assert not (got & pad_rows)
+    assert max_count >= 37
+
+
+def test_overflow_is_reported():
+    rng = np.random.default_rng(1)
+    x = 0.3 + 0.02 * rng.uniform(size=(40, 3))
+    *_, status, max_count = _check(x, 40, (False, False, False), K=8, C=64)
+    assert status & Status.NEIGHBOUR_OVERFLOW and max_count == 39
+    *_, status, _ = _check(x, 40, (False, False, False), K=64, C=16)
+    assert status & Status.CELL_OVERFLOW
+
+
+def test_out_of_domain_is_reported():
+    x = np.array([[0.5, 0.3, 0.2], [0.52, 0.3, 0.2], [1.5, 0.3, 0.2]])
+    *_, status, _ = _check(x, 3, (False, False, False))
+    assert status & Status.OUT_OF_DOMAIN
+
+
+def test_empty_neighbours_shapes():
+    grid = GridSpec.covering((0, 0, 0), (1, 1, 1), min_cell=0.2)
+    cfg = Config(n_fluid=5, n_wall=3, dt=1e-4, grid=grid, cutoff=0.2, skin=0.0, neighbour_capacity=16)
+    nb = empty_neighbours(cfg, np.zeros((8, 3)))
+    assert nb.idx.shape == (5, 16)
+    assert np.all(np.asarray(nb.idx) == np.arange(5)[:, None])
+
+
+def test_periodic_axis_too_short_is_refused():
+    with pytest.raises(ValueError, match="periodic axis 1"):
+        GridSpec.covering((0, 0, 0), (1, 0.15, 1), min_cell=0.1, periodic=(False, True, False))
