@@ -42,14 +42,14 @@ def wendland_c2(r, h):
     """Wendland C2 in 3D: ``21/(16 pi h^3) (1 - q/2)^4 (2q + 1)``, q = r/h < 2."""
     q = r / h
     t = jnp.clip(1.0 - 0.5 * q, 0.0, None)
-    return jnp.where(q < 2.0, (21.0 / (16.0 * math.pi)) / h**3 * t**4 * (2.0 * q + 1.0), 0.0)
+    return jnp.where(r < SUPPORT_FACTOR * h, (21.0 / (16.0 * math.pi)) / h**3 * t**4 * (2.0 * q + 1.0), 0.0)
 
 
 def wendland_c2_f(r, h):
     """(dW/dr)/r of Wendland C2: ``-5 sigma (1 - q/2)^3 / h^2`` (finite at r = 0)."""
     q = r / h
     t = jnp.clip(1.0 - 0.5 * q, 0.0, None)
-    return jnp.where(q < 2.0, -5.0 * (21.0 / (16.0 * math.pi)) / h**5 * t**3, 0.0)
+    return jnp.where(r < SUPPORT_FACTOR * h, -5.0 * (21.0 / (16.0 * math.pi)) / h**5 * t**3, 0.0)
 
 
 def cubic_spline(r, h):
@@ -58,7 +58,7 @@ def cubic_spline(r, h):
     s = 1.0 / (math.pi * h**3)
     inner = 1.0 - 1.5 * q**2 + 0.75 * q**3
     outer = 0.25 * jnp.clip(2.0 - q, 0.0, None) ** 3
-    return s * jnp.where(q < 1.0, inner, jnp.where(q < 2.0, outer, 0.0))
+    return s * jnp.where(q < 1.0, inner, jnp.where(r < SUPPORT_FACTOR * h, outer, 0.0))
 
 
 def cubic_spline_f(r, h):
@@ -68,7 +68,7 @@ def cubic_spline_f(r, h):
     inner = -3.0 + 2.25 * q
     q_safe = jnp.where(q < 1.0, 1.0, q)
     outer = -0.75 * jnp.clip(2.0 - q_safe, 0.0, None) ** 2 / q_safe
-    return s * jnp.where(q < 1.0, inner, jnp.where(q < 2.0, outer, 0.0))
+    return s * jnp.where(q < 1.0, inner, jnp.where(r < SUPPORT_FACTOR * h, outer, 0.0))
 
 
 def poly6(r, h):
