@@ -98,11 +98,14 @@ class Status(enum.IntFlag):
     NON_FINITE = 8  #: NaN or Inf in positions, velocities or densities
     OUT_OF_DOMAIN = 16  #: a particle left the neighbour grid (non-periodic axis)
     UNSTABLE_DT = 32  #: dt exceeds the CFL / viscous / force limit for the current state
+    CONTACT_OVERFLOW = 64  #: more candidate block pairs (or contact points) than the buffer holds
+    BLOCK_UNSTABLE = 128  #: dt exceeds the block stability limit (seed Eq 8) for the current Params
+    BLOCK_PENETRATION = 256  #: a block contact penetrated deeper than the allowed fraction of its size
 
     @classmethod
     def growable(cls) -> "Status":
         """Bits that the driver cures by growing a buffer (or rebuilding more often) and rerunning."""
-        return cls.NEIGHBOUR_OVERFLOW | cls.CELL_OVERFLOW | cls.NEIGHBOUR_STALE
+        return cls.NEIGHBOUR_OVERFLOW | cls.CELL_OVERFLOW | cls.NEIGHBOUR_STALE | cls.CONTACT_OVERFLOW
 
     @classmethod
     def describe(cls, bits: int) -> str:
