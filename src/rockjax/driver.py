@@ -24,7 +24,7 @@ from .scenes.base import Scene, check_params, empty_neighbours
 from .step import prime
 from .types import Config, Kind, State, Status
 
-__all__ = ["simulate", "Result", "SimulationError", "host_frame", "resize"]
+__all__ = ["simulate", "Result", "SimulationError", "host_frame", "resize", "check_block_dt"]
 
 
 class SimulationError(RuntimeError):
@@ -59,15 +59,32 @@ class Result:
 
 
 def host_frame(state: State) -> dict:
-    """Host copy of the particle fields, in original particle order (undoing the cell sort)."""
-    P = jax.device_get(state.particles)
-    order = np.argsort(P.pid)
-    return {"x": P.x[order], "v": P.v[order], "rho": P.rho[order], "p": P.p[order], "kind": P.kind[order]}
+    """Host copy of the per-frame fields: particles in original order (undoing the cell sort) as
+    ``x``, ``v``, ``rho``, ``p``, ``kind``; blocks as ``block_x``, ``block_q``, ``block_v``,
+    ``block_omega``."""
+    out = {}
+    if state.particles is not None:
+        P = jax.device_get(state.particles)
+        order = np.argsort(P.pid)
+        out.update(x=P.x[order], v=P.v[order], rho=P.rho[order], p=P.p[order], kind=P.kind[order])
+    if state.blocks is not None:
+        B = jax.device_get(state.blocks)
+        out.update(block_x=B.x, block_q=B.q, block_v=B.v, block_omega=B.omega)
+    return out
 
 
 def resize(state: State, config: Config) -> State:
-    """The state with its neighbour buffers shaped for ``config`` (contents rebuilt at next refresh)."""
-    return state.replace(nbrs=empty_neighbours(config, state.particles.x), status=jnp.zeros((), jnp.int32))
+    """The state with its buffers shaped for ``config`` (neighbours rebuilt at next refresh; block
+    buffers re-made by ``blocks.resize`` when the pair capacity grew)."""
+    state = state.replace(status=jnp.zeros((), jnp.int32))
+    if state.nbrs is not None:
+        state = state.replace(nbrs=empty_neighbours(config, state.particles.x))
+    if state.blocks is not None:
+        from . import blocks
+
+        if hasattr(blocks, "resize"):
+            state = state.replace(blocks=blocks.resize(state.blocks, config.blocks))
+    return state
 
 
 @functools.lru_cache(maxsize=32)
@@ -87,6 +104,10 @@ def _round8(n: float) -> int:
 
 def _grow(config: Config, state: State, bits: int) -> Config:
     changes = {}
+    if bits & Status.CONTACT_OVERFLOW:
+        from . import blocks
+
+        changes["blocks"] = blocks.grow(config.blocks, state.blocks)
     if bits & Status.NEIGHBOUR_OVERFLOW:
         changes["neighbour_capacity"] = max(_round8(1.2 * int(state.nbrs.max_count)), config.neighbour_capacity + 8)
     if bits & Status.CELL_OVERFLOW:
@@ -101,7 +122,10 @@ def _grow(config: Config, state: State, bits: int) -> Config:
 
 def _clear(state: State) -> State:
     zero = jnp.zeros((), jnp.int32)
-    return state.replace(status=zero, nbrs=state.nbrs.replace(max_count=zero, max_run=zero))
+    state = state.replace(status=zero)
+    if state.nbrs is not None:
+        state = state.replace(nbrs=state.nbrs.replace(max_count=zero, max_run=zero))
+    return state
 
 
 def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt: Optional[float] = None,
@@ -124,6 +148,7 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
     if not (t_end > 0 and math.isfinite(t_end)):
         raise ValueError(f"simulate: t_end must be a positive time in seconds (got {t_end})")
     check_params(config, params)
+    check_block_dt(config, params, state)
     frame_dt = t_end / 50 if frame_dt is None else float(frame_dt)
     if frame_dt <= 0:
         raise ValueError(f"simulate: frame_dt must be positive (got {frame_dt})")
@@ -131,6 +156,8 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
     progress = sys.stderr.isatty() if progress is None else progress
 
     steps_per_frame = max(1, round(frame_dt / config.dt))
+    if not config.has_particles and config.rebuild_every != 1:
+        config = config.replace(rebuild_every=1)  # no list to rebuild: chunks of any length
     blocks = max(1, math.ceil(steps_per_frame / config.rebuild_every))
     n_frames = max(1, math.ceil(t_end / (blocks * config.rebuild_every * config.dt)))
 
@@ -191,7 +218,9 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
     stacked = None
     if keep_frames:
         stacked = {k: np.stack([f[k] for f in frames]) for k in frames[0]}
-    n_fluid = int(np.sum(np.asarray(scene.state.particles.kind) == Kind.FLUID))
+    n_fluid = 0
+    if scene.state.particles is not None:
+        n_fluid = int(np.sum(np.asarray(scene.state.particles.kind) == Kind.FLUID))
     stats = {"wall_s": wall, "steps": steps_done, "regrows": regrows, "n_fluid": n_fluid,
              "particle_steps_per_s": n_fluid * steps_done / max(wall, 1e-9)}
     return Result(scene=scene.replace(config=config, state=state), state=state, times=np.asarray(times),
@@ -219,6 +248,20 @@ def _handle(config, bad_state, start_state, params, bits, regrows, max_regrows, 
     return config, _clear(state), regrows + 1
 
 
+def check_block_dt(config: Config, params, state: State) -> None:
+    """Refuse a Config.dt above the blocks' stable step (seed Eq 8) for these Params (host side)."""
+    if not config.has_blocks:
+        return
+    from . import blocks
+
+    limit = float(blocks.stable_dt(config.blocks, params.blocks, state.blocks))
+    if config.dt > limit * (1 + 1e-6):
+        raise ValueError(
+            f"Config.dt = {config.dt:.4g} s exceeds the block stability limit {limit:.4g} s (seed Eq 8: stiffest "
+            "contact, lightest block) for these Params; use a smaller dt (Config.replace(dt=...)), a lower "
+            "Params.blocks.normal_stiffness or heavier blocks.")
+
+
 def _advice(bits: int) -> str:
     tips = []
     if bits & Status.NON_FINITE:
@@ -227,4 +270,9 @@ def _advice(bits: int) -> str:
         tips.append("A particle left the domain: enlarge the domain (tank height/length) or check the inflow.")
     if bits & Status.UNSTABLE_DT:
         tips.append("The time step exceeds the CFL/viscous limit for the current speeds: reduce Config.dt or raise c0.")
+    if bits & Status.BLOCK_UNSTABLE:
+        tips.append("The time step exceeds the block stability limit (seed Eq 8) for these Params (stiffer "
+                    "contacts or lighter blocks): reduce Config.dt or the penalty stiffness.")
+    if bits & Status.BLOCK_PENETRATION:
+        tips.append("Blocks interpenetrated too deeply: raise the contact stiffness or reduce dt / impact speed.")
     return " ".join(tips)

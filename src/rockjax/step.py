@@ -1,12 +1,25 @@
 """``make_step(config)``: one pure ``step(state, params) -> state`` composed of the stages the
 config switches on, plus the two stages the rollout uses directly (``refresh`` and ``advance``).
 
-Stages decided at trace time from the static ``Config``:
+Stages decided at trace time from the static ``Config`` (a Python ``if``, so a stage that is off
+is never traced):
 
-* ``refresh``: re-sort particles by cell and rebuild the Verlet list (every ``rebuild_every`` steps);
-* fluid: ``Scheme.WCSPH`` (``sph.wcsph``) or ``Scheme.SEED`` (``sph.seed``);
+* ``refresh``: re-sort particles by cell and rebuild the Verlet list (every ``rebuild_every``
+  steps) -- only when the scene has particles;
+* blocks (``config.blocks``): contacts and one central-difference step of the rock blocks
+  (``rockjax.blocks``), with the fluid loads of the previous step as external forces;
+* boundary particles (``Coupling.BOUNDARY_PARTICLES``): particles carried by blocks are placed at
+  the new block poses before the fluid sees them;
+* fluid (``config.n_fluid > 0``): ``Scheme.WCSPH`` (``sph.wcsph``) or ``Scheme.SEED`` (``sph.seed``);
+* coupling (``Coupling.PENALTY``): seed Eq 22 on the fluid at the end of the step, the reaction
+  stored for the blocks' next step (``coupling.penalty``);
 * checks: non-finite values, particles off the grid, stale neighbour list, time step beyond the
   stability limit; each sets a ``Status`` bit for the host driver.
+
+Order within a step (time t -> t + dt): blocks advance with contact forces at t and the fluid
+load computed at the end of the previous step (the state at t); block particles move to the new
+poses; the fluid advances (kick-drift-kick); the penalty force at t + dt kicks the fluid and is
+stored for the blocks. Every exchange of momentum is equal and opposite.
 """
 
 from __future__ import annotations
@@ -17,7 +30,7 @@ import jax.numpy as jnp
 from .sph import seed, wcsph
 from .sph.neighbours import rebuild
 from .sph.kernels import SUPPORT_FACTOR
-from .types import Config, Kind, Params, Scheme, State, Status, Viscosity
+from .types import Config, Coupling, Kind, Params, Scheme, State, Status, Viscosity
 
 __all__ = ["make_step", "refresh", "advance", "prime", "check"]
 
@@ -27,7 +40,12 @@ def _fluid(config: Config):
 
 
 def refresh(state: State, config: Config) -> State:
-    """Sort particles by cell and rebuild the neighbour list; OR its status bits into the state."""
+    """Sort particles by cell and rebuild the neighbour list; OR its status bits into the state.
+
+    A no-op in a scene without particles.
+    """
+    if not config.has_particles:
+        return state
     particles, nbrs, status = rebuild(state.particles, config)
     nbrs = nbrs.replace(
         max_count=jnp.maximum(nbrs.max_count, state.nbrs.max_count),
@@ -37,7 +55,9 @@ def refresh(state: State, config: Config) -> State:
 
 
 def check(state: State, params: Params, config: Config) -> jax.Array:
-    """Status bits [int32] for the state just produced: finiteness, domain, list staleness, dt."""
+    """Status bits [int32] for the particles just produced: finiteness, domain, list staleness, dt."""
+    if not config.has_particles:
+        return jnp.zeros((), jnp.int32)
     P = state.particles
     active = P.kind != Kind.PAD
     finite = jnp.isfinite(P.x).all(-1) & jnp.isfinite(P.v).all(-1) & jnp.isfinite(P.rho)
@@ -57,6 +77,8 @@ def check(state: State, params: Params, config: Config) -> jax.Array:
     status |= jnp.where(max_disp2 > (0.5 * config.skin) ** 2, Status.NEIGHBOUR_STALE, 0)
 
     f = params.fluid
+    if f is None or config.n_fluid == 0:
+        return status.astype(jnp.int32)
     fluid = P.kind == Kind.FLUID
     vmax = jnp.sqrt(jnp.max(jnp.where(fluid, jnp.sum(P.v * P.v, -1), 0.0)))
     unstable = config.dt > 0.5 * f.h / (f.c0 + vmax)
@@ -66,18 +88,69 @@ def check(state: State, params: Params, config: Config) -> jax.Array:
     return status.astype(jnp.int32)
 
 
+def _advance_blocks(state: State, params: Params, config: Config) -> State:
+    from . import blocks
+
+    force = torque = None
+    if state.coupling is not None:
+        force, torque = state.coupling.force, state.coupling.torque
+    t = state.step * config.dt
+    B, status = blocks.advance_blocks(state.blocks, params.blocks, config.blocks, dt=config.dt, t=t,
+                                      gravity=params.gravity, external_force=force, external_torque=torque)
+    return state.replace(blocks=B, status=state.status | status)
+
+
+def _couple_after_fluid(state: State, params: Params, config: Config) -> State:
+    if config.coupling == Coupling.PENALTY:
+        from .coupling import penalty
+
+        P, load = penalty.apply(state.particles, state.blocks, params, config)
+        return state.replace(particles=P, coupling=load)
+    return state
+
+
 def advance(state: State, params: Params, config: Config) -> State:
     """One time step with the current neighbour list (no rebuild)."""
-    P = _fluid(config).advance(state.particles, state.nbrs, params, config)
-    state = state.replace(particles=P, step=state.step + 1)
+    if config.has_blocks:
+        state = _advance_blocks(state, params, config)
+    if config.coupling == Coupling.BOUNDARY_PARTICLES:
+        from .coupling import boundary_particles
+
+        state = state.replace(particles=boundary_particles.place(state.particles, state.blocks, config))
+    if config.n_fluid > 0:
+        P = _fluid(config).advance(state.particles, state.nbrs, params, config)
+        state = state.replace(particles=P)
+        if config.coupling == Coupling.BOUNDARY_PARTICLES:
+            from .coupling import boundary_particles
+
+            state = state.replace(coupling=boundary_particles.load(state.particles, state.nbrs, state.blocks,
+                                                                    params, config))
+        state = _couple_after_fluid(state, params, config)
+    state = state.replace(step=state.step + 1)
     return state.replace(status=state.status | check(state, params, config))
 
 
 def prime(state: State, params: Params, config: Config) -> State:
-    """Rebuild the list and fill accelerations / density rates for the initial positions."""
+    """Rebuild the list and fill accelerations / density rates (and the fluid load on the blocks)
+    for the initial positions."""
     state = refresh(state, config)
-    P = _fluid(config).prime(state.particles, state.nbrs, params, config)
-    return state.replace(particles=P)
+    if config.coupling == Coupling.BOUNDARY_PARTICLES:
+        from .coupling import boundary_particles
+
+        state = state.replace(particles=boundary_particles.place(state.particles, state.blocks, config))
+    if config.n_fluid > 0:
+        P = _fluid(config).prime(state.particles, state.nbrs, params, config)
+        state = state.replace(particles=P)
+        if config.coupling == Coupling.BOUNDARY_PARTICLES:
+            from .coupling import boundary_particles
+
+            state = state.replace(coupling=boundary_particles.load(state.particles, state.nbrs, state.blocks,
+                                                                    params, config))
+        if config.coupling == Coupling.PENALTY:
+            from .coupling import penalty
+
+            state = state.replace(coupling=penalty.load(state.particles, state.blocks, params, config))
+    return state
 
 
 def make_step(config: Config):

@@ -15,7 +15,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
-from typing import Optional
+from typing import Any, Optional
 
 import jax
 import jax.numpy as jnp
@@ -26,14 +26,17 @@ __all__ = [
     "Viscosity",
     "WallModel",
     "DensityDiffusion",
+    "Coupling",
     "Kind",
     "Status",
     "GridSpec",
     "Config",
     "FluidParams",
+    "CouplingParams",
     "Params",
     "Particles",
     "NeighbourList",
+    "CouplingState",
     "State",
     "float_dtype",
 ]
@@ -78,6 +81,14 @@ class DensityDiffusion(enum.Enum):
     NONE = "none"
     MOLTENI = "molteni"  #: Molteni & Colagrossi (2009)
     FOURTAKAS = "fourtakas"  #: Fourtakas et al. (2019): Molteni minus the hydrostatic part
+
+
+class Coupling(enum.Enum):
+    """How water and rock blocks exchange forces (seed section 7; DESIGN "Coupling")."""
+
+    NONE = "none"  #: no exchange (or no blocks / no water)
+    PENALTY = "penalty"  #: seed Eq 22 repulsion on fluid particles near block faces, reaction on the block
+    BOUNDARY_PARTICLES = "boundary_particles"  #: particles on block faces take part in the SPH sums
 
 
 class Kind(enum.IntEnum):
@@ -196,12 +207,17 @@ class Config:
         scheme, kernel, viscosity, wall_model, density_diffusion: scheme choices.
         gamma: Tait exponent (WCSPH).
         cfl: Courant number used for the host time step and the in-jit stability check.
+        blocks: the static block description (``rockjax.blocks.BlockConfig``), or None for no blocks.
+        coupling: how water and blocks exchange forces (``Coupling``); NONE when either is absent.
+
+    A scene with no particles (``n_fluid == n_wall == 0``, blocks only) has ``grid=None`` and
+    traces no SPH code; a scene with ``blocks=None`` traces no block code.
     """
 
     n_fluid: int
     n_wall: int
     dt: float
-    grid: GridSpec
+    grid: Optional[GridSpec]
     cutoff: float
     skin: float
     rebuild_every: int = 10
@@ -214,13 +230,23 @@ class Config:
     density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS
     gamma: float = 7.0
     cfl: float = 0.25
+    blocks: Optional[Any] = None
+    coupling: Coupling = Coupling.NONE
 
     def __post_init__(self):
         # Host-side checks of the static description; scene builders catch most problems earlier.
-        if self.n_fluid < 0 or self.n_wall < 0 or self.n_fluid + self.n_wall < 1:
-            raise ValueError(f"Config.n_fluid / n_wall must be >= 0 with at least one particle (got {self.n_fluid}, {self.n_wall})")
+        if self.n_fluid < 0 or self.n_wall < 0:
+            raise ValueError(f"Config.n_fluid / n_wall must be >= 0 (got {self.n_fluid}, {self.n_wall})")
+        if self.n_fluid + self.n_wall < 1 and self.blocks is None:
+            raise ValueError("Config: a scene needs particles (n_fluid + n_wall >= 1) or blocks (Config.blocks)")
         if not (self.dt > 0 and math.isfinite(self.dt)):
             raise ValueError(f"Config.dt must be a positive finite time step in seconds (got {self.dt})")
+        if self.coupling != Coupling.NONE and (self.blocks is None or self.n_fluid == 0):
+            raise ValueError("Config.coupling needs both water (n_fluid > 0) and blocks; set Coupling.NONE")
+        if not self.has_particles:
+            return
+        if self.grid is None:
+            raise ValueError("Config.grid is required when the scene has particles (GridSpec.covering(...))")
         if self.rebuild_every < 1:
             raise ValueError(f"Config.rebuild_every must be >= 1 (got {self.rebuild_every})")
         if min(self.neighbour_capacity, self.cell_capacity) < 1:
@@ -238,6 +264,16 @@ class Config:
     def n_particles(self) -> int:
         """N = n_fluid + n_wall."""
         return self.n_fluid + self.n_wall
+
+    @property
+    def has_particles(self) -> bool:
+        """Whether any SPH stage is traced."""
+        return self.n_fluid + self.n_wall > 0
+
+    @property
+    def has_blocks(self) -> bool:
+        """Whether any block stage is traced."""
+        return self.blocks is not None
 
     @property
     def list_radius(self) -> float:
@@ -289,11 +325,34 @@ class FluidParams:
 
 
 @_pytree_dataclass
+class CouplingParams:
+    """Constants of the fluid-block coupling (scalars).
+
+    Attributes:
+        penalty_stiffness: K_S of seed Eq 22, per unit fluid mass [1/s^2] (the force on a particle of
+            mass m is ``m (K_S d - K_D v_n) n``, so one value fits every resolution).
+        penalty_damping: K_D of seed Eq 22, per unit fluid mass [1/s].
+        interaction_distance: distance from a block face within which the penalty acts [m].
+    """
+
+    penalty_stiffness: jax.Array
+    penalty_damping: jax.Array
+    interaction_distance: jax.Array
+
+
+@_pytree_dataclass
 class Params:
-    """Everything a user may calibrate or sweep. ``gravity`` is a [3] vector [m/s^2]."""
+    """Everything a user may calibrate or sweep. ``gravity`` is a [3] vector [m/s^2].
+
+    ``fluid`` (``FluidParams``), ``blocks`` (``rockjax.blocks.BlockParams``: densities, friction
+    angle, penalty constants of the rock contacts) and ``coupling`` (``CouplingParams``) are None
+    when the scene has no such part.
+    """
 
     gravity: jax.Array
     fluid: Optional[FluidParams] = None
+    blocks: Optional[Any] = None
+    coupling: Optional[CouplingParams] = None
 
 
 # --------------------------------------------------------------------------------------------
@@ -310,6 +369,9 @@ class Particles:
         rho: density [N] kg/m^3.     drho_dt: density rate [N] kg/m^3/s.   p: pressure [N] Pa.
         vol: reference volume dx^3 [N] m^3 (mass = rho0 * vol).
         kind: ``Kind`` codes [N] int32.   pid: original particle index [N] int32 (for output).
+    body: [N] int32 block that carries the particle (boundary-particle coupling), -1 for none;
+        None when the scene has no such particles.
+    x_body: [N, 3] m, the particle's position in its block's body frame (None likewise).
     """
 
     x: jax.Array
@@ -321,6 +383,8 @@ class Particles:
     vol: jax.Array
     kind: jax.Array
     pid: jax.Array
+    body: Optional[jax.Array] = None
+    x_body: Optional[jax.Array] = None
 
 
 @_pytree_dataclass
@@ -342,20 +406,37 @@ class NeighbourList:
 
 
 @_pytree_dataclass
+class CouplingState:
+    """Fluid loads on the blocks computed at the end of the last step (applied in the next one).
+
+    Attributes:
+        force: [B, 3] N, world frame.   torque: [B, 3] N m, about each block's centroid.
+    """
+
+    force: jax.Array
+    torque: jax.Array
+
+
+@_pytree_dataclass
 class State:
     """Everything that changes in time.
 
     Attributes:
         step: step counter (int32 scalar); the time is ``step * config.dt``.
-        particles: the SPH particles (fluid, walls, padding).
-        nbrs: the Verlet neighbour list.
+        particles: the SPH particles (fluid, walls, padding); None in a blocks-only scene.
+        nbrs: the Verlet neighbour list; None in a blocks-only scene.
         status: ``Status`` bits (int32 scalar), OR-ed over the steps since the driver cleared it.
+        blocks: block poses, velocities, geometry and contact history (``rockjax.blocks.BlockState``),
+            or None.
+        coupling: fluid loads on blocks (``CouplingState``) or None.
     """
 
     step: jax.Array
-    particles: Particles
-    nbrs: NeighbourList
+    particles: Optional[Particles]
+    nbrs: Optional[NeighbourList]
     status: jax.Array
+    blocks: Optional[Any] = None
+    coupling: Optional[CouplingState] = None
 
     def time(self, config: Config) -> jax.Array:
         return self.step * config.dt

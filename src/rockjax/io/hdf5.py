@@ -7,8 +7,14 @@ Layout::
     /kind            [N] int32 particle kinds (original particle order)
     /time            [F] s
     /status          [F] int32 status bits at each frame
-    /x, /v           [F, N, 3] m, m/s
+    /x, /v           [F, N, 3] m, m/s          (scenes with particles)
     /rho, /p         [F, N] kg/m^3, Pa
+    /block_x         [F, B, 3] m block centroids (scenes with blocks)
+    /block_q         [F, B, 4] unit quaternions (w, x, y, z), body -> world
+    /block_v, /block_omega  [F, B, 3] m/s, rad/s
+    /blocks/...      static block geometry (body-frame vertices, faces) for viewers
+
+Every per-frame array of ``driver.host_frame`` becomes one extendable dataset ``[F, ...]``.
 """
 
 from __future__ import annotations
@@ -66,26 +72,34 @@ class Writer:
         g = self.f.create_group("params")
         for name, value in _params_items(scene.params):
             g.create_dataset(name, data=value)
-        n = scene.config.n_particles
         self.f.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8")
         self.f.create_dataset("status", shape=(0,), maxshape=(None,), dtype="i4")
-        for name, tail in (("x", (3,)), ("v", (3,)), ("rho", ()), ("p", ())):
-            self.f.create_dataset(name, shape=(0, n) + tail, maxshape=(None, n) + tail, dtype="f4",
-                                  chunks=(1, n) + tail, compression="gzip", compression_opts=1)
-        self._kind_written = False
+        blocks = getattr(scene.state, "blocks", None)
+        if blocks is not None:
+            gb = self.f.create_group("blocks")
+            for name in ("vertices", "vertex_mask", "face_first_he", "face_mask", "he_vert", "he_next",
+                         "halfedge_mask"):
+                value = getattr(blocks.shape, name, None)
+                if value is not None:
+                    gb.create_dataset(name, data=np.asarray(value))
+        self._names: list[str] | None = None
 
     def append(self, t: float, frame: dict, status: int = 0) -> None:
         """Add one frame (``frame`` as from ``driver.host_frame``)."""
-        if not self._kind_written:
-            self.f.create_dataset("kind", data=np.asarray(frame["kind"], np.int32))
-            self._kind_written = True
+        if self._names is None:
+            if "kind" in frame:
+                self.f.create_dataset("kind", data=np.asarray(frame["kind"], np.int32))
+            self._names = [k for k in frame if k != "kind"]
+            for name in self._names:
+                a = np.asarray(frame[name])
+                self.f.create_dataset(name, shape=(0,) + a.shape, maxshape=(None,) + a.shape, dtype="f4",
+                                      chunks=(1,) + a.shape, compression="gzip", compression_opts=1)
         k = self.f["time"].shape[0]
-        for name in ("time", "status", "x", "v", "rho", "p"):
-            ds = self.f[name]
-            ds.resize(k + 1, axis=0)
+        for name in ["time", "status"] + self._names:
+            self.f[name].resize(k + 1, axis=0)
         self.f["time"][k] = t
         self.f["status"][k] = status
-        for name in ("x", "v", "rho", "p"):
+        for name in self._names:
             self.f[name][k] = np.asarray(frame[name], np.float32)
         self.f.flush()
 
@@ -97,26 +111,40 @@ class Writer:
 
 @dataclasses.dataclass
 class Run:
-    """A run read back from HDF5: arrays in original particle order, config and meta as dicts."""
+    """A run read back from HDF5: arrays in original particle order, config and meta as dicts.
+
+    Particle fields (``kind``, ``x``, ``v``, ``rho``, ``p``) are None in a blocks-only run;
+    ``frames`` holds every per-frame dataset by name (including ``block_x``, ``block_q``, ...);
+    ``blocks`` the static block geometry, or None.
+    """
 
     scene: str
     config: dict
     meta: dict
     params: dict
-    kind: np.ndarray
     time: np.ndarray
     status: np.ndarray
-    x: np.ndarray
-    v: np.ndarray
-    rho: np.ndarray
-    p: np.ndarray
+    frames: dict
+    kind: np.ndarray | None = None
+    x: np.ndarray | None = None
+    v: np.ndarray | None = None
+    rho: np.ndarray | None = None
+    p: np.ndarray | None = None
+    blocks: dict | None = None
+
+
+def _group(g) -> dict:
+    out = {}
+    g.visititems(lambda name, obj: out.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
+    return out
 
 
 def read(path: str) -> Run:
     """Read a whole run written by ``Writer``."""
     with h5py.File(path, "r") as f:
-        params = {}
-        f["params"].visititems(lambda name, obj: params.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
+        skip = {"params", "blocks", "time", "status", "kind"}
+        frames = {k: f[k][()] for k in f.keys() if k not in skip}
         return Run(scene=str(f.attrs["scene"]), config=json.loads(f.attrs["config"]), meta=json.loads(f.attrs["meta"]),
-                   params=params, kind=f["kind"][()], time=f["time"][()], status=f["status"][()], x=f["x"][()],
-                   v=f["v"][()], rho=f["rho"][()], p=f["p"][()])
+                   params=_group(f["params"]), time=f["time"][()], status=f["status"][()], frames=frames,
+                   kind=f["kind"][()] if "kind" in f else None, x=frames.get("x"), v=frames.get("v"),
+                   rho=frames.get("rho"), p=frames.get("p"), blocks=_group(f["blocks"]) if "blocks" in f else None)
