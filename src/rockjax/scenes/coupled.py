@@ -1,0 +1,432 @@
+"""Scenes with rock blocks: the seed's sliding wedge and piston wave maker, a floating box, a
+block dropped into a tank, and a blocks-only incline.
+
+Geometry conventions (SI units, z up): the still-water level is z = 0 unless said otherwise.
+``sliding_wedge``: the slide slope's surface passes through the origin and descends along +x at
+``slope_angle_deg``; the floor is z = -water_depth; a far beach rises at ``far_slope_deg`` at the
+end of a flat of ``flat_length``; the flume spans y in [0, width] between side walls.
+
+Every builder returns a ``Scene`` whose ``Config`` switches on only what it needs: a blocks-only
+scene has no particles (no SPH is traced); a scene whose blocks are all fixed has no coupling.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import jax.numpy as jnp
+import numpy as np
+
+from ..sph.eos import tait_density
+from ..sph.kernels import SUPPORT_FACTOR
+from ..types import (
+    Config, Coupling, CouplingParams, DensityDiffusion, GridSpec, Kind, KernelKind, Scheme, State, Viscosity,
+    WallModel, float_dtype,
+)
+from .base import GRAVITY, Scene, _capacities, _positive, lattice, make_state, stable_dt, water_params
+from .shapes import clearance, fill, plane, shell
+
+__all__ = ["coupled_scene", "sliding_wedge", "floating_box", "block_drop", "piston_wavemaker", "block_on_incline",
+           "sample_block_particles", "coupling_params"]
+
+
+def coupling_params(*, dx: float, c0: float, stiffness: float | None = None, damping: float | None = None,
+                    interaction_distance: float | None = None) -> CouplingParams:
+    """Seed Eq 22 constants for resolution ``dx`` [m] and sound speed ``c0`` [m/s].
+
+    Defaults: ``r0 = dx`` (the particle spacing); ``K_S = (c0 / r0)^2`` [1/s^2], so a particle
+    arriving at the speed of sound is stopped within about r0 and the penalty oscillation
+    ``sqrt(K_S) dt`` stays ~0.3 at the fluid's Courant step; ``K_D = sqrt(K_S)`` [1/s] (half of
+    critical damping).
+    """
+    r0 = dx if interaction_distance is None else _positive("interaction_distance", interaction_distance)
+    ks = (c0 / r0) ** 2 if stiffness is None else _positive("penalty stiffness", stiffness)
+    kd = math.sqrt(ks) if damping is None else float(damping)
+    if kd < 0:
+        raise ValueError(f"coupling: penalty damping must be >= 0 (got {kd})")
+    t = float_dtype()
+    return CouplingParams(penalty_stiffness=jnp.asarray(ks, t), penalty_damping=jnp.asarray(kd, t),
+                          interaction_distance=jnp.asarray(r0, t))
+
+
+def sample_block_particles(poly, dx: float, layers: int) -> np.ndarray:
+    """Body-frame boundary particles of a convex block: lattice points inside it within
+    ``layers * dx`` of its surface (``[n, 3]`` m). The lattice is centred on the centroid."""
+    hs = [(np.asarray(n, float), float(d)) for n, d in zip(poly.face_normal, poly.face_offset)]
+    ext = np.max(np.abs(poly.vertices), axis=0) + dx
+    n_cells = np.ceil(ext / dx).astype(int)
+    lo = -n_cells * dx - 0.5 * dx
+    hi = n_cells * dx + 0.5 * dx
+    pts = lattice(lo, hi, dx)
+    phi = clearance(pts, hs)  # inside the block: phi >= 0
+    keep = (phi >= 0) & (phi < layers * dx)
+    if not np.any(keep):
+        raise ValueError(f"block too thin for dx = {dx} m: no boundary particle fits inside it; use a smaller dx")
+    return pts[keep]
+
+
+def _blocks_api():
+    from .. import blocks
+
+    return blocks
+
+
+def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions, motion, block_density,
+                  friction_angle_deg: float, fluid_x: np.ndarray | None = None, wall_x: np.ndarray | None = None,
+                  domain_lo=None, domain_hi=None, periodic=(False, False, False), still_level: float | None = None,
+                  coupling: Coupling = Coupling.PENALTY, c0: float | None = None, h_factor: float = 1.3,
+                  alpha: float = 0.02, nu: float = 1e-6, delta: float = 0.1, skin_factor: float = 0.6,
+                  rebuild_every: int = 8, cfl: float = 0.25, scheme: Scheme = Scheme.WCSPH,
+                  velocities=None, block_kwargs: dict | None = None, meta: dict | None = None) -> Scene:
+    """Assemble a scene of water (optional) and blocks from host data.
+
+    Args:
+        polyhedra, positions, motion: the blocks (``blocks.geometry`` shapes placed at their
+            centroids [B, 3] m; ``blocks.Motion`` per block).
+        block_density: [B] or scalar kg/m^3. friction_angle_deg: joint friction angle (degrees).
+        fluid_x / wall_x: [n, 3] water and fixed-wall particles (None: a blocks-only scene).
+        still_level: initial free surface z [m] for hydrostatic densities.
+        coupling: how the water and the moving blocks exchange forces.
+        block_kwargs: extra keywords for ``blocks.make_blocks`` (stiffness, damping, ...).
+    """
+    blocks = _blocks_api()
+    B = len(polyhedra)
+    density = np.broadcast_to(np.asarray(block_density, float), (B,))
+    bconfig, bparams, bstate = blocks.make_blocks(
+        list(polyhedra), positions=np.asarray(positions, float), motion=tuple(motion), velocities=velocities,
+        density=density, friction_angle_deg=friction_angle_deg, **(block_kwargs or {}))
+    meta = dict(meta or {}, name=name, dx=dx)
+    moving = [i for i, m in enumerate(motion) if m != blocks.Motion.FIXED]
+    if fluid_x is None:
+        gravity = jnp.asarray([0.0, 0.0, -GRAVITY], float_dtype())
+        from ..types import Params
+
+        params = Params(gravity=gravity, blocks=bparams)
+        dt = float(blocks.stable_dt(bconfig, bparams, bstate))
+        config = Config(n_fluid=0, n_wall=0, dt=dt, grid=None, cutoff=0.0, skin=0.0, rebuild_every=1, blocks=bconfig)
+        state = State(step=jnp.zeros((), jnp.int32), particles=None, nbrs=None, status=jnp.zeros((), jnp.int32),
+                      blocks=bstate)
+        return Scene(config=config, params=params, state=state, meta=meta)
+
+    dx = _positive(f"{name}: dx", dx)
+    if not moving:
+        coupling = Coupling.NONE
+    coupling = Coupling(coupling)
+    scheme = Scheme(scheme)
+    if c0 is None:
+        raise ValueError(f"{name}: c0 (speed of sound) is required for a scene with water")
+    params = water_params(dx=dx, c0=c0, h_factor=h_factor, alpha=alpha, nu=nu, delta=delta)
+    params = params.replace(blocks=bparams)
+    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    wall_x = np.zeros((0, 3)) if wall_x is None else np.asarray(wall_x, float)
+    body = np.full(len(wall_x), -1)
+    x_body = np.zeros((len(wall_x), 3))
+    if coupling == Coupling.BOUNDARY_PARTICLES:
+        from ..coupling.penalty import quat_matrix
+
+        R = np.asarray(quat_matrix(jnp.asarray(bstate.q)))
+        X = np.asarray(bstate.x)
+        extra, bodies, xb = [], [], []
+        for b in moving:
+            pts = sample_block_particles(polyhedra[b], dx, layers)
+            extra.append(pts @ R[b].T + X[b])
+            bodies.append(np.full(len(pts), b))
+            xb.append(pts)
+        wall_x = np.concatenate([wall_x] + extra)
+        body = np.concatenate([body] + bodies)
+        x_body = np.concatenate([x_body] + xb)
+    else:
+        params = params.replace(coupling=coupling_params(dx=dx, c0=c0)) if coupling == Coupling.PENALTY else params
+    if coupling == Coupling.BOUNDARY_PARTICLES:
+        params = params.replace(coupling=coupling_params(dx=dx, c0=c0))
+
+    cutoff = SUPPORT_FACTOR * h_factor * dx
+    skin = skin_factor * dx
+    grid = GridSpec.covering(domain_lo, domain_hi, min_cell=cutoff + skin, periodic=periodic)
+    x = np.concatenate([fluid_x, wall_x])
+    kind = np.concatenate([np.full(len(fluid_x), Kind.FLUID), np.full(len(wall_x), Kind.WALL)]).astype(np.int32)
+    vol = np.full(len(x), dx**3)
+    rho = np.full(len(x), 1000.0)
+    if still_level is not None and scheme == Scheme.WCSPH:
+        depth = np.clip(still_level - x[:, 2], 0.0, None)
+        rho = np.asarray(tait_density(1000.0 * GRAVITY * depth, 1000.0, c0, 7.0))
+    run_length = 1 if (periodic[0] or grid.shape[0] < 3) else 3
+    k, cell_cap = _capacities(h_factor, (cutoff + skin) / dx, run_length)
+    dt = stable_dt(params, scheme=scheme, viscosity=Viscosity.ARTIFICIAL, cfl=cfl)
+    dt = min(dt, float(blocks.stable_dt(bconfig, bparams, bstate)))
+    config = Config(n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
+                    rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap, scheme=scheme,
+                    kernel=KernelKind.WENDLAND_C2, viscosity=Viscosity.ARTIFICIAL, wall_model=WallModel.ADAMI,
+                    density_diffusion=DensityDiffusion.FOURTAKAS, cfl=cfl, blocks=bconfig, coupling=coupling)
+    state = make_state(config=config, x=x, kind=kind, vol=vol, rho=rho)
+    if coupling == Coupling.BOUNDARY_PARTICLES:
+        body_all = np.concatenate([np.full(len(fluid_x), -1), body]).astype(np.int32)
+        xb_all = np.concatenate([np.zeros((len(fluid_x), 3)), x_body])
+        state = state.replace(particles=state.particles.replace(body=jnp.asarray(body_all),
+                                                                x_body=jnp.asarray(xb_all, float_dtype())))
+    if coupling != Coupling.NONE:
+        from ..types import CouplingState
+
+        zero = jnp.zeros((B, 3), float_dtype())
+        state = state.replace(coupling=CouplingState(force=zero, torque=zero))
+    state = state.replace(blocks=bstate)
+    return Scene(config=config, params=params, state=state, meta=meta)
+
+
+def _flume_walls_and_water(*, dx, layers, halfspaces, water_halfspaces, lo, hi):
+    """Water where all ``water_halfspaces`` hold; walls in the shell of the container."""
+    pad = layers * dx
+    water = fill(lo, hi, dx, water_halfspaces)
+    walls = shell(np.asarray(lo) - pad, np.asarray(hi) + pad, dx, halfspaces, layers)
+    return water, walls
+
+
+def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_density: float = 2500.0,
+                  friction_angle_deg: float = 15.0, block_length: float = 0.4, block_width: float = 0.2,
+                  water_depth: float = 0.4, flat_length: float = 1.0, far_slope_deg: float = 30.0,
+                  flume_width: float = 0.3, start_distance: float = 0.1, coupling: Coupling = Coupling.PENALTY,
+                  h_factor: float = 1.3, c0: float | None = None, rebuild_every: int = 8) -> Scene:
+    """The seed's second example: a rigid wedge sliding down a 25 degree plane into water.
+
+    The wedge has a horizontal top of ``block_length`` [m], a vertical front face and its
+    hypotenuse on the slope (height ``block_length tan(slope)``), and starts with its front
+    ``start_distance`` [m] up-slope from the shoreline (x = 0, z = 0). The slope and the floor are
+    FIXED blocks (for the rock contact) and wall particles (for the water).
+
+    Args:
+        dx: particle spacing [m]. slope_angle_deg: slide plane angle. block_density kg/m^3.
+        friction_angle_deg: wedge-slope friction angle. water_depth, flat_length, flume_width m.
+        far_slope_deg: the beach on which run-up is measured. coupling: PENALTY (seed Eq 22) or
+            BOUNDARY_PARTICLES.
+    """
+    dx = _positive("sliding_wedge: dx", dx)
+    for nm, v in (("block_length", block_length), ("block_width", block_width), ("water_depth", water_depth),
+                  ("flat_length", flat_length), ("flume_width", flume_width)):
+        _positive(f"sliding_wedge: {nm}", v)
+    if not 5.0 <= slope_angle_deg <= 60.0:
+        raise ValueError(f"sliding_wedge: slope_angle_deg must be in [5, 60] degrees (got {slope_angle_deg})")
+    if not 5.0 <= far_slope_deg <= 60.0:
+        raise ValueError(f"sliding_wedge: far_slope_deg must be in [5, 60] degrees (got {far_slope_deg})")
+    if block_width > flume_width - 4 * dx:
+        raise ValueError(f"sliding_wedge: block_width ({block_width} m) must leave >= 2 dx on each side in the flume "
+                         f"(flume_width {flume_width} m); make the flume wider or the block narrower")
+    if water_depth < 4 * dx:
+        raise ValueError(f"sliding_wedge: water_depth must hold >= 4 particles; use dx <= {water_depth / 4:.4g} m")
+    blocks = _blocks_api()
+    geo = blocks.geometry
+    th = math.radians(slope_angle_deg)
+    be = math.radians(far_slope_deg)
+    t_, c_ = math.tan(th), math.cos(th)
+    H = block_length * t_
+    # the wedge: front-bottom corner on the slope start_distance up from the shoreline
+    s_dir = np.array([math.cos(th), 0.0, -math.sin(th)])  # down-slope
+    front_bottom = -start_distance * s_dir
+    y0 = 0.5 * (flume_width - block_width)
+    fx, fz = front_bottom[0], front_bottom[2]
+    tri = [(fx, fz), (fx, fz + H), (fx - block_length, fz + H)]
+    pts = np.array([[x, y, z] for y in (y0, y0 + block_width) for (x, z) in tri])
+    wedge = geo.ConvexPolyhedron.from_vertices(pts)
+    x_toe = water_depth / t_
+    x_beach = x_toe + flat_length
+    thick = max(0.2, 4 * dx)
+    # the slope block's top face passes through the origin; slide it along the slope so that it
+    # spans from above the wedge's start down past the toe
+    up = start_distance + block_length / c_ + block_length
+    down = water_depth / math.sin(th)
+    slope_len = up + down + 2 * block_length
+    slope_blk = geo.slope(slope_len, flume_width, thick, slope_angle_deg)
+    slope_pos = slope_blk.centroid_world + np.array([0.0, 0.5 * flume_width, 0.0]) + 0.5 * (down - up) * s_dir
+    floor_len = flat_length + 2 * x_toe
+    floor = geo.slab(floor_len, flume_width, thick)
+    floor_pos = floor.centroid_world + np.array([x_toe + 0.5 * flat_length, 0.5 * flume_width, -water_depth])
+    n_slope = np.array([math.sin(th), 0.0, math.cos(th)])
+    n_beach = np.array([-math.sin(be), 0.0, math.cos(be)])
+    z_top = max(H + start_distance * math.sin(th) + 0.1, 0.5 * water_depth)
+    x_left = -(z_top / t_) - 2 * dx
+    x_right = x_beach + (z_top + water_depth) / math.tan(be) + 2 * dx
+    container = [
+        plane(-n_slope, [0.0, 0.0, 0.0]), plane(-n_beach, [x_beach, 0.0, -water_depth]),
+        plane([0, 0, -1], [0, 0, -water_depth]), plane([0, -1, 0], [0, 0, 0]), plane([0, 1, 0], [0, flume_width, 0]),
+        plane([1, 0, 0], [x_right, 0, 0]), plane([-1, 0, 0], [x_left, 0, 0]),
+    ]
+    water_hs = container + [plane([0, 0, 1], [0, 0, 0])]
+    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    # lattice aligned so that the floor (z = -depth) and the side walls fall on cell faces
+    lo = np.array([x_left, 0.0, -water_depth])
+    n_up = math.ceil((z_top + water_depth) / dx)
+    hi = np.array([x_left + math.ceil((x_right - x_left) / dx) * dx, flume_width, -water_depth + n_up * dx])
+    water, walls = _flume_walls_and_water(dx=dx, layers=layers, halfspaces=container, water_halfspaces=water_hs,
+                                          lo=lo, hi=hi)
+    pad = layers * dx
+    dom_lo = lo - pad
+    dom_hi = hi + pad + np.array([0, 0, 2 * z_top])
+    c0 = 10.0 * math.sqrt(GRAVITY * (water_depth + z_top)) if c0 is None else _positive("sliding_wedge: c0", c0)
+    motion = (blocks.Motion.DYNAMIC, blocks.Motion.FIXED, blocks.Motion.FIXED)
+    meta = dict(slope_angle_deg=slope_angle_deg, water_depth=water_depth, flat_length=flat_length,
+                far_slope_deg=far_slope_deg, flume_width=flume_width, still_level=0.0, x_toe=x_toe,
+                x_beach=x_beach, block_height=H,
+                runup_slope=dict(point=[x_beach, 0.5 * flume_width, -water_depth], normal=n_beach.tolist()),
+                gauges=dict(names=["near", "middle", "far"],
+                            xy=[[x_toe + 0.2 * flat_length, 0.5 * flume_width],
+                                [x_toe + 0.5 * flat_length, 0.5 * flume_width],
+                                [x_toe + 0.8 * flat_length, 0.5 * flume_width]],
+                            bottom_z=[-water_depth] * 3))
+    return coupled_scene(name="sliding_wedge", dx=dx, polyhedra=[wedge, slope_blk, floor],
+                         positions=[wedge.centroid_world, slope_pos, floor_pos], motion=motion,
+                         block_density=[block_density, 2500.0, 2500.0], friction_angle_deg=friction_angle_deg,
+                         fluid_x=water, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi, still_level=0.0,
+                         coupling=coupling, c0=c0, h_factor=h_factor, rebuild_every=rebuild_every, meta=meta)
+
+
+def _box_tank(*, dx, length, width, depth, height, layers):
+    lo = np.array([0.0, 0.0, 0.0])
+    container = [plane([0, 0, -1], lo), plane([-1, 0, 0], lo), plane([0, -1, 0], lo),
+                 plane([1, 0, 0], [length, 0, 0]), plane([0, 1, 0], [0, width, 0])]
+    water_hs = container + [plane([0, 0, 1], [0, 0, depth])]
+    hi = np.array([length, width, height])
+    return _flume_walls_and_water(dx=dx, layers=layers, halfspaces=container, water_halfspaces=water_hs, lo=lo,
+                                  hi=hi)
+
+
+def floating_box(*, dx: float = 0.02, box_size=(0.2, 0.2, 0.1), box_density: float = 500.0,
+                 tank_size=(0.6, 0.6), water_depth: float = 0.3, coupling: Coupling = Coupling.PENALTY,
+                 initial_draft: float | None = None, h_factor: float = 1.3, c0: float | None = None) -> Scene:
+    """A box of density ``box_density`` [kg/m^3] released at the surface of still water in a tank.
+
+    Archimedes: it settles with a draft ``box_density / 1000 * box height``. It starts at
+    ``initial_draft`` (default: half the equilibrium draft) so it sinks, oscillates and settles.
+    """
+    dx = _positive("floating_box: dx", dx)
+    lx, ly, lz = (float(s) for s in box_size)
+    L, W = (float(s) for s in tank_size)
+    if box_density <= 0 or box_density >= 1000.0:
+        raise ValueError(f"floating_box: box_density must be in (0, 1000) kg/m^3 to float (got {box_density})")
+    if lx > L - 6 * dx or ly > W - 6 * dx:
+        raise ValueError("floating_box: the box must leave >= 3 dx of water on each side; enlarge tank_size")
+    blocks = _blocks_api()
+    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    draft_eq = box_density / 1000.0 * lz
+    draft0 = 0.5 * draft_eq if initial_draft is None else float(initial_draft)
+    box = blocks.geometry.box(lx, ly, lz)
+    pos = np.array([0.5 * L, 0.5 * W, water_depth - draft0 + 0.5 * lz])
+    height = water_depth + 2 * lz
+    water, walls = _box_tank(dx=dx, length=L, width=W, depth=water_depth, height=height, layers=layers)
+    # remove water inside (and within r0 of) the box
+    lo_b, hi_b = pos - 0.5 * np.array([lx, ly, lz]) - dx, pos + 0.5 * np.array([lx, ly, lz]) + dx
+    water = water[~np.all((water > lo_b) & (water < hi_b), axis=1)]
+    pad = layers * dx
+    c0 = 10.0 * math.sqrt(2 * GRAVITY * water_depth) if c0 is None else c0
+    meta = dict(box_size=[lx, ly, lz], box_density=box_density, water_depth=water_depth, still_level=water_depth,
+                equilibrium_draft=draft_eq, tank_size=[L, W])
+    return coupled_scene(name="floating_box", dx=dx, polyhedra=[box], positions=[pos], motion=(blocks.Motion.DYNAMIC,),
+                         block_density=box_density, friction_angle_deg=30.0, fluid_x=water, wall_x=walls,
+                         domain_lo=[-pad, -pad, -pad], domain_hi=[L + pad, W + pad, height + 2 * lz],
+                         still_level=water_depth, coupling=coupling, c0=c0, h_factor=h_factor, meta=meta)
+
+
+def block_drop(*, dx: float = 0.02, box_size=(0.1, 0.1, 0.1), box_density: float = 2500.0, drop_height: float = 0.2,
+               tank_size=(0.5, 0.5), water_depth: float = 0.2, coupling: Coupling = Coupling.PENALTY,
+               h_factor: float = 1.3, c0: float | None = None) -> Scene:
+    """A box released ``drop_height`` [m] (its bottom above the still water) into a tank; a
+    fixed floor block stops it at the bottom (z = 0)."""
+    dx = _positive("block_drop: dx", dx)
+    lx, ly, lz = (float(s) for s in box_size)
+    L, W = (float(s) for s in tank_size)
+    blocks = _blocks_api()
+    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    box = blocks.geometry.box(lx, ly, lz)
+    pos = np.array([0.5 * L, 0.5 * W, water_depth + drop_height + 0.5 * lz])
+    floor = blocks.geometry.slab(L, W, 0.1)
+    floor_pos = floor.centroid_world + np.array([0.5 * L, 0.5 * W, 0.0])
+    height = water_depth + drop_height + lz + 2 * dx
+    water, walls = _box_tank(dx=dx, length=L, width=W, depth=water_depth, height=height, layers=layers)
+    pad = layers * dx
+    v_impact = math.sqrt(2 * GRAVITY * drop_height)
+    c0 = 10.0 * max(math.sqrt(2 * GRAVITY * water_depth), v_impact) if c0 is None else c0
+    meta = dict(box_size=[lx, ly, lz], box_density=box_density, water_depth=water_depth, still_level=water_depth,
+                drop_height=drop_height, tank_size=[L, W])
+    return coupled_scene(name="block_drop", dx=dx, polyhedra=[box, floor], positions=[pos, floor_pos],
+                         motion=(blocks.Motion.DYNAMIC, blocks.Motion.FIXED), block_density=[box_density, 2500.0],
+                         friction_angle_deg=30.0, fluid_x=water, wall_x=walls, domain_lo=[-pad, -pad, -pad],
+                         domain_hi=[L + pad, W + pad, height + water_depth], still_level=water_depth,
+                         coupling=coupling, c0=c0, h_factor=h_factor, meta=meta)
+
+
+def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float = 1.0, water_depth: float = 0.3,
+                     flat_length: float = 2.0, beach_slope: float = 0.04, beach_length: float | None = None,
+                     flume_width: float = 0.1, periodic_y: bool = True, coupling: Coupling = Coupling.PENALTY,
+                     h_factor: float = 1.3, c0: float | None = None) -> Scene:
+    """The seed's first example: a piston wave maker, a flat section and a sloping beach.
+
+    The piston is a PRESCRIBED block, ``x(t) = x0 + S/2 sin(2 pi t / T)`` (stroke S, period T
+    in ``Params.blocks``); its face is at x = 0 at rest. The flat runs to x = ``flat_length``,
+    then the beach rises at ``beach_slope`` (rise/run; the seed's is 4 %) for ``beach_length``
+    (default: up to 0.5 water depths above the still level). ``periodic_y`` makes the flume a
+    thin periodic slab (a 2D flume experiment). The paper's scale (70 m flat, ~65k particles) is
+    ``dx`` ~0.1 with ``flat_length=70``; the default is a small flume for tests.
+    """
+    dx = _positive("piston_wavemaker: dx", dx)
+    for nm, v in (("stroke", stroke), ("period", period), ("water_depth", water_depth),
+                  ("flat_length", flat_length), ("beach_slope", beach_slope), ("flume_width", flume_width)):
+        _positive(f"piston_wavemaker: {nm}", v)
+    blocks = _blocks_api()
+    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    rise = 1.5 * water_depth
+    beach_length = rise / beach_slope if beach_length is None else _positive("beach_length", beach_length)
+    x_end = flat_length + beach_length
+    piston_t = max(4 * dx, 0.1)
+    z_top = water_depth + max(0.5 * water_depth, 2 * stroke)
+    piston = blocks.geometry.box(piston_t, flume_width, z_top + 0.1)
+    pos = np.array([-0.5 * piston_t, 0.5 * flume_width, 0.5 * (z_top + 0.1)])
+    n_beach = np.array([-beach_slope, 0.0, 1.0])
+    x_min = -stroke - 2 * dx
+    container = [plane([0, 0, -1], [0, 0, 0]), plane(-n_beach, [flat_length, 0, 0]),
+                 plane([1, 0, 0], [x_end, 0, 0]), plane([-1, 0, 0], [x_min, 0, 0])]
+    if not periodic_y:
+        container += [plane([0, -1, 0], [0, 0, 0]), plane([0, 1, 0], [0, flume_width, 0])]
+    water_hs = [h for h in container if not np.allclose(h[0], [-1, 0, 0])] + [plane([0, 0, 1], [0, 0, water_depth]),
+                                                                          plane([-1, 0, 0], [dx, 0, 0])]
+    lo = np.array([x_min, 0.0, 0.0])
+    hi = np.array([x_min + math.ceil((x_end - x_min) / dx) * dx, flume_width, math.ceil(z_top / dx) * dx])
+    water = fill(lo, hi, dx, water_hs)
+    pad = layers * dx
+    wlo = lo - np.array([pad, 0 if periodic_y else pad, pad])
+    whi = hi + np.array([pad, 0 if periodic_y else pad, 0])
+    walls = shell(wlo, whi, dx, container, layers)
+    c0 = 10.0 * math.sqrt(GRAVITY * water_depth) * 1.5 if c0 is None else c0
+    periodic = (False, bool(periodic_y), False)
+    dom_lo = [x_min - pad, 0.0 if periodic_y else -pad, -pad]
+    dom_hi = [hi[0] + pad, flume_width if periodic_y else flume_width + pad, z_top + water_depth]
+    k = 2 * math.pi / period  # placeholder for meta (wavenumber solved in validation)
+    meta = dict(stroke=stroke, period=period, water_depth=water_depth, flat_length=flat_length,
+                beach_slope=beach_slope, still_level=water_depth, omega=k,
+                runup_slope=dict(point=[flat_length, 0.5 * flume_width, 0.0], normal=(n_beach / np.linalg.norm(n_beach)).tolist()),
+                gauges=dict(names=["g1", "g2"], xy=[[0.3 * flat_length, 0.5 * flume_width],
+                                                    [0.6 * flat_length, 0.5 * flume_width]],
+                            bottom_z=[0.0, 0.0]))
+    return coupled_scene(name="piston_wavemaker", dx=dx, polyhedra=[piston], positions=[pos],
+                         motion=(blocks.Motion.PRESCRIBED,), block_density=2500.0, friction_angle_deg=30.0,
+                         fluid_x=water, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi, periodic=periodic,
+                         still_level=water_depth, coupling=coupling, c0=c0, h_factor=h_factor,
+                         block_kwargs=dict(stroke=stroke, period=period, direction=[(1.0, 0.0, 0.0)]), meta=meta)
+
+
+def block_on_incline(*, angle_deg: float = 30.0, friction_angle_deg: float = 20.0, block_size=(0.2, 0.2, 0.1),
+                     block_density: float = 2500.0) -> Scene:
+    """Blocks only: a box resting on a fixed incline (no water; no SPH is traced)."""
+    blocks = _blocks_api()
+    geo = blocks.geometry
+    lx, ly, lz = (float(s) for s in block_size)
+    slope = geo.slope(20 * lx, 10 * ly, 0.2, angle_deg)
+    th = math.radians(angle_deg)
+    n = np.array([math.sin(th), 0.0, math.cos(th)])
+    box = geo.box(lx, ly, lz)
+    c, s = math.cos(th), math.sin(th)
+    rot_pts = (box.vertices) @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]).T
+    tilted = geo.ConvexPolyhedron.from_vertices(rot_pts + 0.5 * lz * n)
+    meta = dict(angle_deg=angle_deg, friction_angle_deg=friction_angle_deg)
+    return coupled_scene(name="block_on_incline", dx=None, polyhedra=[tilted, slope],
+                         positions=[tilted.centroid_world, slope.centroid_world],
+                         motion=(blocks.Motion.DYNAMIC, blocks.Motion.FIXED), block_density=block_density,
+                         friction_angle_deg=friction_angle_deg, meta=meta)
