@@ -1,1 +1,66 @@
-"""The rock blocks: convex polyhedra (host geometry in ``geometry``); the 3D-DDA dynamics are an open issue."""
+"""The rock blocks: explicit 3D-DDA convex polyhedra (seed sections 2-5).
+
+* ``geometry`` (host, numpy): convex polyhedra with half-edge tables, mass properties, packing;
+  shape helpers ``box``, ``wedge``, ``prism``, ``slab`` (floor), ``slope`` (inclined plane).
+* ``model``: ``Motion``, ``Broadphase``, ``BlockConfig`` (static), ``BlockParams``, ``BlockShape``,
+  ``BlockState``; ``make_blocks`` (host builder), ``stable_dt`` (seed Eq 8), world geometry, energies.
+* ``broadphase``: AABBs, all-pairs or sorted uniform grid, fixed-capacity pair buffer.
+* ``fcp``: the Fast Common Plane narrow phase (Nezami et al. 2004).
+* ``contact``: contact points, the penalty / Coulomb contact law, ``contact_forces``.
+* ``integrate``: ``advance_blocks``, one central-difference step (seed Eq 5-7).
+
+This package does not import ``rockjax.sph``.
+"""
+
+from .contact import ContactHistory, contact_forces, with_history
+from .geometry import ConvexPolyhedron, PackedBlocks, box, pack, prism, slab, slope, wedge
+from .integrate import advance_blocks, prescribed_motion
+from .model import (
+    BlockConfig,
+    BlockParams,
+    BlockShape,
+    BlockState,
+    Broadphase,
+    Motion,
+    block_mass,
+    energies,
+    make_blocks,
+    resize_pairs,
+    stable_dt,
+    world_inertia,
+    world_planes,
+    world_vertices,
+)
+from .rotation import quat_from_axis_angle, quat_matrix
+
+__all__ = [
+    "BlockConfig",
+    "BlockParams",
+    "BlockShape",
+    "BlockState",
+    "Broadphase",
+    "ContactHistory",
+    "ConvexPolyhedron",
+    "Motion",
+    "PackedBlocks",
+    "advance_blocks",
+    "block_mass",
+    "box",
+    "contact_forces",
+    "energies",
+    "make_blocks",
+    "pack",
+    "prescribed_motion",
+    "prism",
+    "quat_from_axis_angle",
+    "quat_matrix",
+    "resize_pairs",
+    "slab",
+    "slope",
+    "stable_dt",
+    "wedge",
+    "with_history",
+    "world_inertia",
+    "world_planes",
+    "world_vertices",
+]

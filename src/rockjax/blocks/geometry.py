@@ -21,7 +21,9 @@ What it owns
 
 * Constructors: :meth:`ConvexPolyhedron.from_vertices` (convex hull of a point
   set), :meth:`ConvexPolyhedron.from_trimesh` (validated closed convex mesh),
-  and the shape helpers :func:`box`, :func:`wedge`, :func:`prism`.
+  and the shape helpers :func:`box`, :func:`wedge`, :func:`prism`, and
+  :func:`slab` / :func:`slope` (a floor or an inclined plane, meant to be a
+  large FIXED block).
 
 * :func:`mass_properties` -- volume, centroid and inertia of any closed,
   outward-wound triangle mesh (signed tetrahedra; Tonon 2004).
@@ -59,6 +61,8 @@ __all__ = [
     "mass_properties",
     "pack",
     "prism",
+    "slab",
+    "slope",
     "wedge",
 ]
 
@@ -911,6 +915,39 @@ def prism(polygon_xy, height: float) -> ConvexPolyhedron:
         [np.c_[poly, np.zeros(len(poly))], np.c_[poly, np.full(len(poly), h)]]
     )
     return ConvexPolyhedron.from_vertices(pts)
+
+
+def slab(lx: float, ly: float, thickness: float) -> ConvexPolyhedron:
+    """A floor: box ``lx x ly x thickness`` (m) whose TOP face is the plane z = 0 of the input frame.
+
+    It spans ``[-lx/2, lx/2] x [-ly/2, ly/2] x [-thickness, 0]``; ``centroid_world`` is
+    ``(0, 0, -thickness/2)``, so placing the block at its ``centroid_world`` puts the floor surface
+    at z = 0.  Use it as a large FIXED block (``Motion.FIXED``).
+    """
+    t = _positive("thickness", thickness)
+    hx, hy = 0.5 * _positive("lx", lx), 0.5 * _positive("ly", ly)
+    pts = np.array(
+        [[sx * hx, sy * hy, z] for sx in (-1, 1) for sy in (-1, 1) for z in (-t, 0.0)]
+    )
+    return ConvexPolyhedron.from_vertices(pts)
+
+
+def slope(length: float, width: float, thickness: float, angle_deg: float) -> ConvexPolyhedron:
+    """An inclined plane: a :func:`slab` rotated about +y so that its top surface descends along +x.
+
+    The top face passes through the origin of the input frame with outward normal
+    ``(sin a, 0, cos a)`` (``a = angle_deg`` in degrees, ``0 <= a < 90``); the down-slope unit
+    vector is ``(cos a, 0, -sin a)``.  ``length`` is measured along the slope, ``width`` along y.
+    Use it as a large FIXED block placed at its ``centroid_world``.
+    """
+    a = float(angle_deg)
+    if not np.isfinite(a) or not 0.0 <= a < 90.0:
+        raise ValueError(f"angle_deg must be in [0, 90) degrees, got {angle_deg}")
+    base = slab(length, width, thickness)
+    pts = base.vertices + base.centroid_world
+    c, s = np.cos(np.radians(a)), np.sin(np.radians(a))
+    rot = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    return ConvexPolyhedron.from_vertices(pts @ rot.T)
 
 
 # --------------------------------------------------------------------------

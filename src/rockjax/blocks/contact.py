@@ -1,0 +1,243 @@
+"""Contact points, the contact law and the per-step contact forces of the blocks.
+
+Owns :func:`contact_forces` (broad phase -> history remap -> FCP -> contact points -> law ->
+forces and torques on each block) and :class:`ContactHistory`.
+
+Contact points of a pair (i, j) with common-plane normal n (from i to j) -- padded, masked, never
+pruned; each kind has its own fixed slot so the shear history follows the feature:
+
+* vertices of j inside block i (slot = vertex of j): depth ``max_i n.x - n.x_v``;
+* vertices of i inside block j (slot = vertex of i): depth ``n.x_v - min_j n.x``;
+* edge-edge crossings (slot = edge of i x edge of j): the two edges, projected on the common
+  plane, cross strictly inside both; the crossing point of i's edge lies inside j and that of
+  j's edge inside i; depth = n.(p_i - p_j) > 0.
+
+"Inside" is the face-plane test with a tolerance of ``inside_tolerance x radius`` (points on a
+side face, as at the corners of a face-on-face contact, count).
+
+Contact law per point (forces on j; i gets the opposite, torques about each centroid):
+
+* normal: ``f_n = k_n delta + c_n max(closing speed, 0)`` with ``c_n = 2 zeta sqrt(k_n m_red)``:
+  the dashpot acts only while the gap closes, so ``f_n >= 0`` (never pulls);
+* tangential: a spring on the accumulated tangential displacement u (history, projected on the
+  current plane each step), ``f_t = -k_s u - c_t v_t`` with ``c_t = 2 zeta sqrt(k_s m_red)``; if
+  ``|f_t| > f_n tan(phi) + cohesion`` the point slips: ``f_t`` is scaled onto the cap and u
+  set to ``-f_t / k_s`` (no dashpot while slipping).  Norms are gradient-safe.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from ..types import Status, _pytree_dataclass
+from .broadphase import candidate_pairs, pairs_are_static
+from .fcp import fcp_pair
+from .model import BlockConfig, BlockParams, BlockState, Motion, block_mass, world_planes, world_vertices
+from .rotation import safe_norm
+
+__all__ = ["ContactHistory", "contact_forces", "pair_contacts", "with_history"]
+
+
+@_pytree_dataclass
+class ContactHistory:
+    """The contact part of :class:`BlockState` (same field names and meanings)."""
+
+    pairs: jax.Array
+    pair_mask: jax.Array
+    plane: jax.Array
+    plane_valid: jax.Array
+    shear: jax.Array
+    slot_active: jax.Array
+
+
+def with_history(state: BlockState, h: ContactHistory) -> BlockState:
+    """``state`` with its contact history replaced by ``h``."""
+    return state.replace(pairs=h.pairs, pair_mask=h.pair_mask, plane=h.plane, plane_valid=h.plane_valid,
+                         shear=h.shear, slot_active=h.slot_active)
+
+
+def _inside(pts, N, D, fm, tol):
+    """[...] bool: points [...,3] inside the planes N [F,3], D [F] (``N.x - D <= tol``)."""
+    s = jnp.einsum("...i,fi->...f", pts, N) - D
+    return jnp.all(jnp.where(fm, s <= tol, True), -1)
+
+
+def _tangent_basis(n):
+    a = jnp.where(jnp.abs(n[0]) < 0.6, jnp.array([1.0, 0.0, 0.0], n.dtype), jnp.array([0.0, 1.0, 0.0], n.dtype))
+    t1 = jnp.cross(n, a)
+    t1 = t1 / safe_norm(t1)
+    t2 = jnp.cross(n, t1)
+    return t1, t2
+
+
+def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj, rj, n, sup_i, sup_j, *,
+                  tol_rel: float, edge_contacts: bool):
+    """Contact points of one pair for the common plane (n, sup_i, sup_j).
+
+    Args:
+      X*: [V,3] world vertices; m*: [V]; N*: [F,3] world normals; D*: [F] offsets; fm*: [F];
+      e*: [nE,2] edges; em*: [nE]; r*: [] bounding radii (m).  n: [3] unit i -> j;
+      sup_i = max_i n.x, sup_j = min_j n.x (m).
+    Returns:
+      ``(points [S,3] m, depth [S] m, active [S] bool)`` with S = 2 V (+ nE^2 with edge contacts).
+    """
+    tol_i, tol_j = tol_rel * ri, tol_rel * rj
+    # vertices of j inside i, vertices of i inside j
+    dj = sup_i - Xj @ n
+    aj = mj & _inside(Xj, Ni, Di, fmi, tol_i) & (dj > 0)
+    di = Xi @ n - sup_j
+    ai = mi & _inside(Xi, Nj, Dj, fmj, tol_j) & (di > 0)
+    pts = [Xj, Xi]
+    dep = [dj, di]
+    act = [aj, ai]
+    if edge_contacts:
+        t1, t2 = _tangent_basis(n)
+        a0, a1 = Xi[ei[:, 0]], Xi[ei[:, 1]]
+        b0, b1 = Xj[ej[:, 0]], Xj[ej[:, 1]]
+
+        def p2(x):
+            return jnp.stack([x @ t1, x @ t2], -1)
+
+        A0, dA = p2(a0), p2(a1 - a0)
+        B0, dB = p2(b0), p2(b1 - b0)
+
+        def cross2(u, w):
+            return u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0]
+
+        w = B0[None, :, :] - A0[:, None, :]  # [nEi, nEj, 2]
+        den = cross2(dA[:, None, :], dB[None, :, :])
+        la = safe_norm(dA)[:, None]
+        lb = safe_norm(dB)[None, :]
+        ok = (jnp.abs(den) > 1e-6 * la * lb) & emi[:, None] & emj[None, :]
+        den_s = jnp.where(ok, den, 1.0)
+        s = cross2(w, dB[None, :, :]) / den_s
+        u = cross2(w, dA[:, None, :]) / den_s
+        eps = 1e-3
+        ok = ok & (s > eps) & (s < 1 - eps) & (u > eps) & (u < 1 - eps)
+        p = a0[:, None, :] + s[..., None] * (a1 - a0)[:, None, :]
+        q = b0[None, :, :] + u[..., None] * (b1 - b0)[None, :, :]
+        de = (p - q) @ n
+        ok = ok & (de > 0) & _inside(p, Nj, Dj, fmj, tol_j) & _inside(q, Ni, Di, fmi, tol_i)
+        pts.append((0.5 * (p + q)).reshape(-1, 3))
+        dep.append(de.reshape(-1))
+        act.append(ok.reshape(-1))
+    points = jnp.concatenate(pts, 0)
+    depth = jnp.concatenate(dep, 0)
+    active = jnp.concatenate(act, 0)
+    return points, jnp.where(active, depth, 0.0), active
+
+
+def _remap(old: ContactHistory, pairs, mask, B):
+    """Carry plane / shear history from the old pair buffer to the new one (matching (i, j))."""
+    big = B * B + 1
+    okey = jnp.where(old.pair_mask, old.pairs[:, 0] * B + old.pairs[:, 1], big)
+    order = jnp.argsort(okey)
+    sk = okey[order]
+    nkey = pairs[:, 0] * B + pairs[:, 1]
+    pos = jnp.clip(jnp.searchsorted(sk, nkey), 0, sk.shape[0] - 1)
+    found = mask & (sk[pos] == nkey)
+    src = order[pos]
+    return ContactHistory(
+        pairs=pairs,
+        pair_mask=mask,
+        plane=old.plane[src],
+        plane_valid=found & old.plane_valid[src],
+        shear=old.shear[src],
+        slot_active=found[:, None] & old.slot_active[src],
+    )
+
+
+def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, *, dt, return_info: bool = False):
+    """Contact forces and torques on every block at the current poses.
+
+    Args:
+      state, params, config: the blocks.  dt: s, the step the shear springs advance over.
+      return_info: also return a dict of per-pair/per-slot diagnostics.
+    Returns:
+      ``(force [B,3] N, torque [B,3] N m, history ContactHistory, status int32)`` -- forces ON each
+      block, torques about its centroid, world frame; plus ``info`` when asked.
+    """
+    B = config.n_blocks
+    sh = state.shape
+    f = state.x.dtype
+    Xw = world_vertices(state)
+    Nw, Dw = world_planes(state)
+    pairs, mask, status = candidate_pairs(config, Xw, sh.vertex_mask)
+    old = ContactHistory(state.pairs, state.pair_mask, state.plane, state.plane_valid, state.shear, state.slot_active)
+    if pairs_are_static(config):
+        hist = ContactHistory(pairs, mask, old.plane, old.plane_valid & mask, old.shear,
+                              old.slot_active & mask[:, None])
+    else:
+        hist = _remap(old, pairs, mask, B)
+    i, j = pairs[:, 0], pairs[:, 1]
+    star = (sh.star_face, sh.star_vertex, sh.star_mask)
+
+    def g(a, k):
+        return a[k]
+
+    fcp = jax.vmap(lambda *a: fcp_pair(*a, iterations=config.fcp_iterations))(
+        g(Xw, i), g(sh.vertex_mask, i), g(Nw, i), g(sh.face_mask, i), tuple(g(s, i) for s in star),
+        g(Xw, j), g(sh.vertex_mask, j), g(Nw, j), g(sh.face_mask, j), tuple(g(s, j) for s in star),
+        state.x[i], state.x[j], hist.plane, hist.plane_valid,
+    )
+    n = fcp["normal"]
+    pts, depth, active = jax.vmap(
+        lambda *a: pair_contacts(*a, tol_rel=config.inside_tolerance, edge_contacts=config.edge_contacts)
+    )(
+        Xw[i], sh.vertex_mask[i], Nw[i], Dw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i], sh.radius[i],
+        Xw[j], sh.vertex_mask[j], Nw[j], Dw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j], sh.radius[j],
+        n, fcp["support_i"], fcp["support_j"],
+    )
+    active = active & mask[:, None]
+    depth = jnp.where(active, depth, 0.0)
+
+    # ---- contact law ----
+    dyn = jnp.asarray([m == Motion.DYNAMIC for m in config.motion])
+    m = block_mass(state, params)
+    inv_m = jnp.where(dyn, 1.0 / m, 0.0)
+    m_red = 1.0 / jnp.maximum(inv_m[i] + inv_m[j], 1e-30)  # [P]
+    kn, ks = params.normal_stiffness, params.shear_stiffness
+    zeta = params.damping_ratio
+    cn = 2.0 * zeta * jnp.sqrt(kn * m_red)[:, None]
+    ct = 2.0 * zeta * jnp.sqrt(ks * m_red)[:, None]
+    ri = pts - state.x[i][:, None, :]
+    rj = pts - state.x[j][:, None, :]
+    vi = state.v[i][:, None, :] + jnp.cross(state.omega[i][:, None, :], ri)
+    vj = state.v[j][:, None, :] + jnp.cross(state.omega[j][:, None, :], rj)
+    vrel = vj - vi
+    nn = n[:, None, :]
+    vn = jnp.sum(vrel * nn, -1)
+    fn = kn * depth + cn * jnp.maximum(-vn, 0.0)
+    fn = jnp.where(active, fn, 0.0)
+    vt = vrel - vn[..., None] * nn
+    u = jnp.where(hist.slot_active[..., None], hist.shear, 0.0)
+    u = u - jnp.sum(u * nn, -1, keepdims=True) * nn
+    u = u + vt * dt
+    ft = -ks * u - ct * vt
+    cap = fn * jnp.tan(params.friction_angle) + params.cohesion
+    fmag = safe_norm(ft)
+    slip = fmag > cap
+    scale = jnp.where(slip, cap / jnp.where(slip, fmag, 1.0), 1.0)
+    ft_c = ft * scale[..., None]
+    u_new = jnp.where(slip[..., None], -ft_c / jnp.where(ks > 0, ks, 1.0), u)
+    ft_c = jnp.where(active[..., None], ft_c, 0.0)
+    u_new = jnp.where(active[..., None], u_new, 0.0)
+    F = fn[..., None] * nn + ft_c  # on j, [P,S,3]
+    Fj = jnp.sum(F, 1)
+    Tj = jnp.sum(jnp.cross(rj, F), 1)
+    Ti = -jnp.sum(jnp.cross(ri, F), 1)
+    force = jnp.zeros((B, 3), f).at[j].add(Fj).at[i].add(-Fj)
+    torque = jnp.zeros((B, 3), f).at[j].add(Tj).at[i].add(Ti)
+
+    hist = ContactHistory(pairs=pairs, pair_mask=mask, plane=jax.lax.stop_gradient(n), plane_valid=mask,
+                          shear=u_new, slot_active=active)
+    rmin = jnp.minimum(sh.radius[i], sh.radius[j])
+    deep = jnp.any(depth > config.penetration_limit * rmin[:, None])
+    status = status | jnp.where(deep, Status.BLOCK_PENETRATION.value, 0).astype(jnp.int32)
+    if return_info:
+        info = dict(pairs=pairs, pair_mask=mask, normal=n, gap=fcp["gap"], fcp_changes=fcp["changes"],
+                    points=pts, depth=depth, active=active, normal_force=fn, tangential_force=ft_c,
+                    n_contacts=jnp.sum(active.astype(jnp.int32)))
+        return force, torque, hist, status, info
+    return force, torque, hist, status

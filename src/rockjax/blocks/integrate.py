@@ -1,0 +1,94 @@
+"""One explicit central-difference step of the blocks (seed Eq 5-7).
+
+Owns :func:`advance_blocks`.  Leapfrog form of seed Eq 5-6 with a constant dt: the velocities in
+the state are mid-step velocities,
+
+    v_{n+1/2} = v_{n-1/2} + dt M^-1 F_n                 (Eq 6-7)
+    x_{n+1}   = x_n + dt v_{n+1/2}                      (Eq 5)
+
+and for rotation, with the world inertia ``I_w = R I_b R^T`` and Euler's equations,
+``omega_{n+1/2} = omega_{n-1/2} + dt I_w^-1 (T_n - omega x I_w omega)`` (gyroscopic term
+explicit) and ``q_{n+1} = exp(dt omega_{n+1/2} / 2) q_n`` renormalised.
+
+FIXED blocks never move and are not integrated (only the DYNAMIC ones are gathered).  PRESCRIBED
+blocks follow ``x(t) = x0 + dir S/2 sin(2 pi t / T)`` with ``v = dx/dt`` at the mid-step, orientation
+``q0``.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+from ..types import Status
+from .contact import contact_forces, with_history
+from .model import BlockConfig, BlockParams, BlockState, stable_dt_jax
+from .rotation import quat_integrate, quat_matrix
+
+__all__ = ["advance_blocks", "prescribed_motion"]
+
+
+def prescribed_motion(config: BlockConfig, params: BlockParams, x0, t):
+    """Piston positions and velocities at time t (s).
+
+    Returns:
+      ``(x [B,3] m, v [B,3] m/s)`` for every block (meaningful for PRESCRIBED ones).
+    """
+    d = jnp.asarray(np.asarray(config.prescribed_direction, np.float64).reshape(-1, 3), x0.dtype)
+    w = 2.0 * jnp.pi / params.period
+    amp = 0.5 * params.stroke
+    return x0 + d * amp * jnp.sin(w * t), d * amp * w * jnp.cos(w * t)
+
+
+def advance_blocks(state: BlockState, params: BlockParams, config: BlockConfig, *, dt, t, gravity,
+                   external_force=None, external_torque=None):
+    """Advance the blocks from t to t + dt.
+
+    Args:
+      dt: s (the caller's global step; must not exceed the block limit, see ``stable_dt``).
+      t: s, time at the start of the step (PRESCRIBED motion).
+      gravity: [3] m/s^2.
+      external_force: [B,3] N or None (e.g. fluid load), on the centroid, world frame.
+      external_torque: [B,3] N m or None, about the centroid, world frame.
+    Returns:
+      ``(state, status int32)``: status may hold CONTACT_OVERFLOW, BLOCK_UNSTABLE (dt above the
+      Eq 8 limit for these params), BLOCK_PENETRATION and NON_FINITE.
+    """
+    force, torque, hist, status = contact_forces(state, params, config, dt=dt)
+    state = with_history(state, hist)
+    f = state.x.dtype
+    gravity = jnp.asarray(gravity, f)
+    if external_force is not None:
+        force = force + external_force
+    if external_torque is not None:
+        torque = torque + external_torque
+    x, v, q, om = state.x, state.v, state.q, state.omega
+    dyn = config.dynamic
+    if dyn:
+        d = jnp.asarray(dyn)
+        m = params.density[d] * state.shape.volume[d]
+        vd = v[d] + dt * (force[d] / m[:, None] + gravity)
+        qd = q[d]
+        R = quat_matrix(qd)
+        Ib = params.density[d, None, None] * state.shape.inertia_unit[d]
+        Iw = jnp.einsum("bij,bjk,blk->bil", R, Ib, R)
+        wd = om[d]
+        L = jnp.einsum("bij,bj->bi", Iw, wd)
+        rhs = torque[d] - jnp.cross(wd, L)
+        wd = wd + dt * jnp.linalg.solve(Iw, rhs[..., None])[..., 0]
+        xd = x[d] + dt * vd
+        qd = quat_integrate(qd, wd, dt)
+        x, v, q, om = x.at[d].set(xd), v.at[d].set(vd), q.at[d].set(qd), om.at[d].set(wd)
+        finite = jnp.all(jnp.isfinite(xd)) & jnp.all(jnp.isfinite(vd)) & jnp.all(jnp.isfinite(qd)) & jnp.all(
+            jnp.isfinite(wd))
+        status = status | jnp.where(finite, 0, Status.NON_FINITE.value).astype(jnp.int32)
+        unstable = dt > stable_dt_jax(config, params, state.shape, safety=1.0)
+        status = status | jnp.where(unstable, Status.BLOCK_UNSTABLE.value, 0).astype(jnp.int32)
+    pre = config.prescribed
+    if pre:
+        p = jnp.asarray(pre)
+        xp, _ = prescribed_motion(config, params, state.x0, t + dt)
+        _, vp = prescribed_motion(config, params, state.x0, t + 0.5 * dt)
+        x, v = x.at[p].set(xp[p]), v.at[p].set(vp[p])
+        q = q.at[p].set(state.q0[p])
+    return state.replace(x=x, v=v, q=q, omega=om), status.astype(jnp.int32)

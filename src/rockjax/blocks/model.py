@@ -1,0 +1,635 @@
+"""The block model: static ``BlockConfig``, calibratable ``BlockParams``, ``BlockShape`` / ``BlockState``.
+
+This module owns the data layout of the explicit 3D-DDA rock blocks and the host-side scene
+builder :func:`make_blocks` (validation of every input, defaults, the stable time step of seed
+Eq 8), plus small pure helpers on the state (world vertices and planes, mass, inertia,
+energies).  Contacts live in ``fcp`` / ``contact`` / ``broadphase``; the time step in
+``integrate``.
+
+Units: SI (m, kg, s, N, rad).  z points up.  Orientation ``q = (w, x, y, z)`` maps body to world.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+from collections.abc import Sequence
+from typing import Optional
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..types import _pytree_dataclass, float_dtype
+from .geometry import ConvexPolyhedron, pack
+from .rotation import quat_matrix
+
+__all__ = [
+    "Motion",
+    "Broadphase",
+    "BlockConfig",
+    "BlockParams",
+    "BlockShape",
+    "BlockState",
+    "make_blocks",
+    "stable_dt",
+    "stable_dt_jax",
+    "world_vertices",
+    "world_planes",
+    "block_mass",
+    "world_inertia",
+    "energies",
+    "resize_pairs",
+]
+
+
+class Motion(enum.Enum):
+    """How a block moves."""
+
+    DYNAMIC = "dynamic"  #: integrated from contact, gravity and external forces
+    FIXED = "fixed"  #: never moves (slopes, floors, tanks); costs nothing beyond its contacts
+    PRESCRIBED = "prescribed"  #: piston: x(t) = x0 + dir * S/2 * sin(2 pi t / T), orientation fixed
+
+
+class Broadphase(enum.Enum):
+    """How candidate block pairs are found."""
+
+    ALL_PAIRS = "all_pairs"  #: every pair with a dynamic block, AABB test (few blocks)
+    GRID = "grid"  #: uniform grid built by sorting (many blocks); large blocks tested against all
+
+
+@dataclasses.dataclass(frozen=True)
+class BlockConfig:
+    """Static description of the blocks (hashable; a static argument of ``jax.jit``).
+
+    Attributes:
+      n_blocks: B.
+      max_vertices, max_faces, max_halfedges, max_edges: padded sizes V, F, E, nE.
+      max_valence: K, the most edges at one vertex (padding of the vertex stars used by FCP).
+      motion: per-block :class:`Motion`.
+      pair_capacity: P, the candidate-pair buffer; more overlapping AABB pairs set
+        ``Status.CONTACT_OVERFLOW`` (never silently dropped: grow with :func:`resize_pairs`).
+      fcp_iterations: fixed number of Fast Common Plane iterations per pair and step.
+      broadphase: :class:`Broadphase`.
+      prescribed_direction: per block unit 3-vector of the piston motion ((0,0,0) if not PRESCRIBED).
+      aabb_margin: m, added to every AABB half-size in the broad phase.
+      grid_cell_size: m, uniform-grid cell (GRID; default 1.5 x median block size, seed section 2).
+      grid_cell_capacity: most blocks per grid cell (GRID); more set CONTACT_OVERFLOW.
+      large_blocks: blocks bigger than a grid cell (GRID): tested against every block directly.
+      edge_contacts: also use edge-edge crossings as contact points (default True).
+      inside_tolerance: relative (to the block's bounding radius) tolerance of the
+        point-in-block test that decides which vertices / crossings are contact points.
+      penetration_limit: depth / min(bounding radius) above which BLOCK_PENETRATION is set.
+    """
+
+    n_blocks: int
+    max_vertices: int
+    max_faces: int
+    max_halfedges: int
+    max_edges: int
+    max_valence: int
+    motion: tuple
+    pair_capacity: int
+    fcp_iterations: int = 4
+    broadphase: Broadphase = Broadphase.ALL_PAIRS
+    prescribed_direction: tuple = ()
+    aabb_margin: float = 0.0
+    grid_cell_size: float = 1.0
+    grid_cell_capacity: int = 8
+    large_blocks: tuple = ()
+    edge_contacts: bool = True
+    inside_tolerance: float = 1e-4
+    penetration_limit: float = 0.1
+
+    def __post_init__(self):
+        if len(self.motion) != self.n_blocks:
+            raise ValueError(f"BlockConfig.motion has {len(self.motion)} entries, n_blocks={self.n_blocks}")
+        if self.pair_capacity < 1:
+            raise ValueError("BlockConfig.pair_capacity must be >= 1")
+        if self.fcp_iterations < 0:
+            raise ValueError("BlockConfig.fcp_iterations must be >= 0")
+
+    @property
+    def dynamic(self) -> tuple:
+        """Indices of DYNAMIC blocks."""
+        return tuple(i for i, m in enumerate(self.motion) if m == Motion.DYNAMIC)
+
+    @property
+    def prescribed(self) -> tuple:
+        """Indices of PRESCRIBED blocks."""
+        return tuple(i for i, m in enumerate(self.motion) if m == Motion.PRESCRIBED)
+
+    @property
+    def contact_slots(self) -> int:
+        """Contact slots per pair: vertices of j in i, vertices of i in j, edge x edge crossings."""
+        return 2 * self.max_vertices + (self.max_edges**2 if self.edge_contacts else 0)
+
+    @property
+    def static_pairs(self) -> tuple:
+        """All pairs (i < j) with at least one DYNAMIC block (the ALL_PAIRS candidates)."""
+        dyn = [m == Motion.DYNAMIC for m in self.motion]
+        return tuple(
+            (i, j) for i in range(self.n_blocks) for j in range(i + 1, self.n_blocks) if dyn[i] or dyn[j]
+        )
+
+
+@_pytree_dataclass
+class BlockParams:
+    """Calibratable block constants (array leaves; ``jax.grad`` and ``vmap`` go through them).
+
+    Attributes:
+      density: [B] kg/m^3 (mass = density x volume; FIXED/PRESCRIBED blocks use it for nothing).
+      friction_angle: [] rad, Coulomb cap ``|f_t| <= f_n tan(phi) + cohesion`` per contact point.
+      cohesion: [] N per contact point (added to the Coulomb cap of a compressed point).
+      tensile_strength: [] N per contact point; must be 0 (bonded joints are not implemented).
+      normal_stiffness: [] N/m, penalty spring per contact point.
+      shear_stiffness: [] N/m, tangential spring per contact point.
+      damping_ratio: [] ratio of critical damping per contact point, ``c = 2 zeta sqrt(k m_red)``
+        with the pair's reduced mass (a FIXED block counts as infinitely heavy). The normal
+        dashpot acts only while the contact closes (never pulls); the tangential one
+        (``sqrt(k_s m_red)``) only while the point sticks.
+      stroke: [] m, piston stroke S (PRESCRIBED blocks).
+      period: [] s, piston period T (PRESCRIBED blocks).
+    """
+
+    density: jax.Array
+    friction_angle: jax.Array
+    cohesion: jax.Array
+    tensile_strength: jax.Array
+    normal_stiffness: jax.Array
+    shear_stiffness: jax.Array
+    damping_ratio: jax.Array
+    stroke: jax.Array
+    period: jax.Array
+
+
+@_pytree_dataclass
+class BlockShape:
+    """Constant padded block geometry, body frame (from ``geometry.PackedBlocks``).
+
+    Index padding is 0 (always combine with the masks).  Float padding is 0.
+
+    Attributes:
+      vertices [B,V,3] m; vertex_mask [B,V] bool;
+      face_normal [B,F,3] outward unit; face_offset [B,F] m (``n.x <= d`` inside); face_mask [B,F];
+      edges [B,nE,2] int32 vertex pairs; edge_mask [B,nE];
+      he_vert, he_next, he_pair, he_face [B,E] int32; halfedge_mask [B,E];
+      star_face [B,V,K] faces around each vertex; star_vertex [B,V,K] the other end of each edge
+      leaving the vertex; star_mask [B,V,K] (from half-edge walks: seed section 4);
+      volume [B] m^3; inertia_unit [B,3,3] m^5 (inertia for unit density, body frame);
+      radius [B] m (bounding radius about the centroid).
+    """
+
+    vertices: jax.Array
+    vertex_mask: jax.Array
+    face_normal: jax.Array
+    face_offset: jax.Array
+    face_mask: jax.Array
+    edges: jax.Array
+    edge_mask: jax.Array
+    he_vert: jax.Array
+    he_next: jax.Array
+    he_pair: jax.Array
+    he_face: jax.Array
+    halfedge_mask: jax.Array
+    star_face: jax.Array
+    star_vertex: jax.Array
+    star_mask: jax.Array
+    volume: jax.Array
+    inertia_unit: jax.Array
+    radius: jax.Array
+
+
+@_pytree_dataclass
+class BlockState:
+    """Block poses, velocities and contact history.
+
+    Attributes:
+      shape: :class:`BlockShape`.
+      x: [B,3] m centroid.   q: [B,4] unit quaternion (w,x,y,z), body -> world.
+      v: [B,3] m/s and omega: [B,3] rad/s (world frame): leapfrog mid-step velocities
+        (seed Eq 6: after a step from t to t+dt they are the velocities of t+dt/2).
+      x0: [B,3], q0: [B,4] reference pose of FIXED / PRESCRIBED blocks.
+      pairs: [P,2] int32 candidate pairs (i < j); pair_mask: [P] bool.
+      plane: [P,3] last common-plane normal per pair (from i to j), the FCP warm start;
+        plane_valid: [P] bool.
+      shear: [P,S,3] m, tangential spring displacement per contact slot (world frame);
+        slot_active: [P,S] bool.
+    """
+
+    shape: BlockShape
+    x: jax.Array
+    q: jax.Array
+    v: jax.Array
+    omega: jax.Array
+    x0: jax.Array
+    q0: jax.Array
+    pairs: jax.Array
+    pair_mask: jax.Array
+    plane: jax.Array
+    plane_valid: jax.Array
+    shear: jax.Array
+    slot_active: jax.Array
+
+
+# ------------------------------------------------------------------------------------------
+# small pure helpers
+# ------------------------------------------------------------------------------------------
+
+
+def world_vertices(state: BlockState) -> jax.Array:
+    """[B,V,3] world positions of the (padded) vertices (m); padding slots sit at the centroid."""
+    R = quat_matrix(state.q)
+    return jnp.einsum("bij,bvj->bvi", R, state.shape.vertices) + state.x[:, None, :]
+
+
+def world_planes(state: BlockState):
+    """World face planes: ``(normals [B,F,3], offsets [B,F])`` with ``n.x <= d`` inside (m)."""
+    R = quat_matrix(state.q)
+    n = jnp.einsum("bij,bfj->bfi", R, state.shape.face_normal)
+    d = state.shape.face_offset + jnp.einsum("bfi,bi->bf", n, state.x)
+    return n, d
+
+
+def block_mass(state: BlockState, params: BlockParams) -> jax.Array:
+    """[B] kg."""
+    return params.density * state.shape.volume
+
+
+def world_inertia(state: BlockState, params: BlockParams) -> jax.Array:
+    """[B,3,3] kg m^2 inertia tensors about the centroids, world frame."""
+    R = quat_matrix(state.q)
+    Ib = params.density[:, None, None] * state.shape.inertia_unit
+    return jnp.einsum("bij,bjk,blk->bil", R, Ib, R)
+
+
+def energies(state: BlockState, params: BlockParams, gravity, config: Optional[BlockConfig] = None) -> dict:
+    """Kinetic and gravitational potential energy (J) of the DYNAMIC blocks.
+
+    ``potential = -sum m g.x`` (zero at the origin).  With ``config`` None every block with
+    non-zero velocity counts as dynamic... so pass ``config`` whenever FIXED / PRESCRIBED blocks exist.
+
+    Args:
+      gravity: [3] m/s^2.
+    Returns:
+      dict(kinetic=[] J, potential=[] J).
+    """
+    m = block_mass(state, params)
+    if config is not None:
+        dyn = jnp.asarray([mo == Motion.DYNAMIC for mo in config.motion])
+    else:
+        dyn = jnp.ones(m.shape, bool)
+    I = world_inertia(state, params)
+    ke = 0.5 * m * jnp.sum(state.v**2, -1) + 0.5 * jnp.einsum("bi,bij,bj->b", state.omega, I, state.omega)
+    pe = -m * (state.x @ jnp.asarray(gravity, state.x.dtype))
+    return dict(kinetic=jnp.sum(jnp.where(dyn, ke, 0.0)), potential=jnp.sum(jnp.where(dyn, pe, 0.0)))
+
+
+# ------------------------------------------------------------------------------------------
+# stable time step (seed Eq 8)
+# ------------------------------------------------------------------------------------------
+
+
+def _omega_max_sq(k, m, radius, inertia_min, n_points):
+    """Upper bound of omega^2 for one block on ``n_points`` springs of stiffness ``k``.
+
+    A point spring at distance r <= radius from the centroid sees the generalised mass
+    ``1 / (1/m + r^2 / I_min)``; ``n_points`` such springs in parallel bound the largest
+    eigenvalue of M^-1 K by ``n_points k (1/m + radius^2 / I_min)`` (Gershgorin).
+    """
+    return n_points * k * (1.0 / m + radius**2 / inertia_min)
+
+
+def stable_dt_jax(config: BlockConfig, params: BlockParams, shape: BlockShape, *, safety=1.0):
+    """In-jit version of :func:`stable_dt` (a [] array; inf if there is no DYNAMIC block)."""
+    dyn = config.dynamic
+    if not dyn:
+        return jnp.asarray(jnp.inf, params.normal_stiffness.dtype)
+    idx = jnp.asarray(dyn)
+    m = params.density[idx] * shape.volume[idx]
+    I = params.density[idx, None, None] * shape.inertia_unit[idx]
+    Imin = jnp.linalg.eigvalsh(I)[:, 0]
+    k = jnp.maximum(params.normal_stiffness, params.shear_stiffness)
+    w2 = jnp.max(_omega_max_sq(k, m, shape.radius[idx], Imin, 2 * config.max_vertices))
+    z = params.damping_ratio
+    return safety * 2.0 / jnp.sqrt(w2) * (jnp.sqrt(1.0 + z * z) - z)
+
+
+def stable_dt(config: BlockConfig, params: BlockParams, state: BlockState, *, safety: float = 0.5) -> float:
+    """Stable explicit time step of the blocks (s), host side; seed Eq 8 ``dt <= 2 / omega_max``.
+
+    ``omega_max`` comes from the stiffest contact spring ``k = max(k_n, k_s)`` on the lightest
+    (in generalised mass) DYNAMIC block: ``omega_max^2 = n k (1/m + r^2 / I_min)`` with
+    ``n = 2 V`` contact points (all its vertices against a face plus as many crossings or
+    vertices of the other block), r the bounding radius and I_min the smallest principal
+    inertia; the dashpot lowers the limit to ``2/omega (sqrt(1+zeta^2) - zeta)``.  This bound is
+    conservative (a box resting on a face uses about 1/3 of it); ``safety`` (default 0.5)
+    covers several simultaneous neighbours.  The in-jit check in ``advance_blocks`` uses the
+    same formula with safety 1 and sets ``Status.BLOCK_UNSTABLE`` beyond it.
+
+    Returns:
+      dt in s (``inf`` when there is no DYNAMIC block).
+    """
+    return float(stable_dt_jax(config, params, state.shape, safety=safety))
+
+
+# ------------------------------------------------------------------------------------------
+# host builder
+# ------------------------------------------------------------------------------------------
+
+
+def _scalar(name, value, *, lo=None, lo_open=False, hi=None, hi_open=False, unit=""):
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number ({unit}), got {value!r}") from None
+    if not math.isfinite(x):
+        raise ValueError(f"{name} must be finite ({unit}), got {x}")
+    if lo is not None and (x < lo or (lo_open and x == lo)):
+        raise ValueError(f"{name} must be {'>' if lo_open else '>='} {lo} {unit}, got {x}")
+    if hi is not None and (x > hi or (hi_open and x == hi)):
+        raise ValueError(f"{name} must be {'<' if hi_open else '<='} {hi} {unit}, got {x}")
+    return x
+
+
+def _per_block(name, value, B, width, default=None):
+    if value is None:
+        return default
+    a = np.asarray(value, dtype=np.float64)
+    want = (B, width) if width else (B,)
+    if a.shape != want:
+        raise ValueError(f"{name} must have shape {want} (one per block), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} contains NaN or inf")
+    return a
+
+
+def _stars(poly: ConvexPolyhedron, V: int, K: int):
+    sf = np.zeros((V, K), np.int32)
+    sv = np.zeros((V, K), np.int32)
+    sm = np.zeros((V, K), bool)
+    for v in range(poly.n_vertices):
+        hes = poly.halfedges_around_vertex(v)
+        sf[v, : len(hes)] = poly.he_face[hes]
+        sv[v, : len(hes)] = poly.he_vert[poly.he_next[hes]]
+        sm[v, : len(hes)] = True
+    return sf, sv, sm
+
+
+def make_blocks(
+    polyhedra: Sequence[ConvexPolyhedron],
+    *,
+    positions=None,
+    motion=None,
+    orientations=None,
+    velocities=None,
+    omegas=None,
+    density=2650.0,
+    friction_angle_deg: float = 30.0,
+    cohesion: float = 0.0,
+    tensile_strength: float = 0.0,
+    normal_stiffness: Optional[float] = None,
+    shear_stiffness: Optional[float] = None,
+    penalty_modulus: float = 1e9,
+    damping_ratio: float = 0.2,
+    stroke: float = 0.0,
+    period: float = 1.0,
+    prescribed_direction=None,
+    pair_capacity: Optional[int] = None,
+    fcp_iterations: int = 4,
+    broadphase: Optional[Broadphase] = None,
+    aabb_margin: Optional[float] = None,
+    grid_cell_size: Optional[float] = None,
+    grid_cell_capacity: int = 8,
+    edge_contacts: bool = True,
+    inside_tolerance: float = 1e-4,
+    penetration_limit: float = 0.1,
+):
+    """Build ``(BlockConfig, BlockParams, BlockState)`` from convex polyhedra, validating every input.
+
+    Args:
+      polyhedra: B :class:`ConvexPolyhedron` (body frame at the centroid).
+      positions: [B,3] m centroids; default each block's ``centroid_world`` (where it was built).
+      motion: B :class:`Motion` (default all DYNAMIC).
+      orientations: [B,4] quaternions (w,x,y,z) body -> world (normalised here); default identity.
+      velocities: [B,3] m/s; omegas: [B,3] rad/s (world); default 0.
+      density: kg/m^3, scalar or [B].
+      friction_angle_deg: Coulomb friction angle (degrees), in [0, 90).
+      cohesion: N per contact point (>= 0).  tensile_strength: must be 0 (not implemented).
+      normal_stiffness: N/m per contact point; default ``penalty_modulus x L`` with L the median
+        block size (2 x bounding radius) of the DYNAMIC blocks -- the DDA practice of a
+        penalty ~ E x length.  ``penalty_modulus`` (Pa, default 1e9) is a numerical modulus:
+        the penetration under a column of rock of height H is about ``rho g H / E``.
+      shear_stiffness: N/m; default 0.4 x normal_stiffness.
+      damping_ratio: closing-only ratio of critical damping per contact point (>= 0).
+      stroke, period: piston stroke (m) and period (s) of PRESCRIBED blocks.
+      prescribed_direction: [B,3] piston directions (needed for PRESCRIBED blocks; normalised).
+      pair_capacity: candidate-pair buffer; default all candidate pairs (ALL_PAIRS) or
+        ``8 x n_dynamic + (#large blocks x B)`` (GRID).
+      fcp_iterations: Fast Common Plane iterations per step (>= 0).
+      broadphase: default ALL_PAIRS for up to 32 blocks, GRID above.
+      aabb_margin: m; default 0.05 x the smallest block radius.
+      grid_cell_size: m; default 1.5 x the median block size (Nezami et al. 2004).
+      grid_cell_capacity: blocks per grid cell.
+      edge_contacts, inside_tolerance, penetration_limit: see :class:`BlockConfig`.
+
+    Returns:
+      ``(config, params, state)``; state arrays in float32 (float64 under ``jax_enable_x64``).
+
+    Raises:
+      ValueError: naming the field and what to change.
+    """
+    polys = list(polyhedra)
+    if not polys:
+        raise ValueError("polyhedra: need at least one block")
+    for i, p in enumerate(polys):
+        if not isinstance(p, ConvexPolyhedron):
+            raise ValueError(f"polyhedra[{i}] is {type(p).__name__}; build blocks with rockjax.blocks.box/"
+                             "wedge/slab/ConvexPolyhedron.from_vertices")
+    B = len(polys)
+    if motion is None:
+        motion = (Motion.DYNAMIC,) * B
+    motion = tuple(motion)
+    if len(motion) != B or not all(isinstance(m, Motion) for m in motion):
+        raise ValueError(f"motion must be {B} rockjax.blocks.Motion values (one per block), got {motion}")
+    dyn = [m == Motion.DYNAMIC for m in motion]
+
+    packed = pack(polys)
+    pos = _per_block("positions", positions, B, 3, default=np.asarray(packed.centroid_world))
+    ori = _per_block("orientations", orientations, B, 4, default=np.tile([1.0, 0, 0, 0], (B, 1)))
+    nq = np.linalg.norm(ori, axis=1)
+    if np.any(nq < 1e-6):
+        raise ValueError("orientations: every quaternion (w, x, y, z) must be non-zero")
+    ori = ori / nq[:, None]
+    vel = _per_block("velocities", velocities, B, 3, default=np.zeros((B, 3)))
+    om = _per_block("omegas", omegas, B, 3, default=np.zeros((B, 3)))
+    for name, arr in (("velocities", vel), ("omegas", om)):
+        bad = [i for i in range(B) if not dyn[i] and np.any(arr[i] != 0)]
+        if bad:
+            raise ValueError(f"{name}: blocks {bad} are not DYNAMIC; their velocity comes from their motion, set 0")
+
+    dens = np.asarray(density, dtype=np.float64)
+    if dens.ndim == 0:
+        dens = np.full(B, float(dens))
+    if dens.shape != (B,) or not np.all(np.isfinite(dens)) or np.any(dens <= 0):
+        raise ValueError(f"density must be a positive finite number or [B={B}] array (kg/m^3), got {density}")
+    phi = _scalar("friction_angle_deg", friction_angle_deg, lo=0.0, hi=90.0, hi_open=True, unit="degrees")
+    coh = _scalar("cohesion", cohesion, lo=0.0, unit="N per contact point")
+    ten = _scalar("tensile_strength", tensile_strength, lo=0.0, unit="N")
+    if ten != 0.0:
+        raise ValueError("tensile_strength: bonded (tensile) joints are not implemented; set 0")
+    radius = np.asarray(packed.bounding_radius)
+    sizes = 2 * radius[np.asarray(dyn)] if any(dyn) else 2 * radius
+    L = float(np.median(sizes))
+    E = _scalar("penalty_modulus", penalty_modulus, lo=0.0, lo_open=True, unit="Pa")
+    kn = E * L if normal_stiffness is None else _scalar("normal_stiffness", normal_stiffness, lo=0.0,
+                                                          lo_open=True, unit="N/m")
+    ks = 0.4 * kn if shear_stiffness is None else _scalar("shear_stiffness", shear_stiffness, lo=0.0,
+                                                           unit="N/m")
+    zeta = _scalar("damping_ratio", damping_ratio, lo=0.0, unit="(ratio of critical)")
+    S = _scalar("stroke", stroke, lo=0.0, unit="m")
+    T = _scalar("period", period, lo=0.0, lo_open=True, unit="s")
+
+    pdir = np.zeros((B, 3))
+    if any(m == Motion.PRESCRIBED for m in motion):
+        if prescribed_direction is None:
+            raise ValueError("prescribed_direction: [B,3] piston directions are needed for PRESCRIBED blocks")
+        pd = _per_block("prescribed_direction", prescribed_direction, B, 3)
+        for i, m in enumerate(motion):
+            if m == Motion.PRESCRIBED:
+                n = np.linalg.norm(pd[i])
+                if n == 0:
+                    raise ValueError(f"prescribed_direction[{i}] is zero for a PRESCRIBED block")
+                pdir[i] = pd[i] / n
+
+    if broadphase is None:
+        broadphase = Broadphase.ALL_PAIRS if B <= 32 else Broadphase.GRID
+    if not isinstance(broadphase, Broadphase):
+        raise ValueError(f"broadphase must be a rockjax.blocks.Broadphase, got {broadphase!r}")
+    it = int(fcp_iterations)
+    if it < 0 or it != fcp_iterations:
+        raise ValueError(f"fcp_iterations must be a non-negative integer, got {fcp_iterations}")
+    margin = 0.05 * float(radius.min()) if aabb_margin is None else _scalar("aabb_margin", aabb_margin, lo=0.0,
+                                                                             unit="m")
+    cell = 1.5 * float(np.median(2 * radius)) if grid_cell_size is None else _scalar(
+        "grid_cell_size", grid_cell_size, lo=0.0, lo_open=True, unit="m")
+    # a block whose AABB (<= 2 r + 2 margin per axis) can exceed one cell is "large"
+    large = tuple(int(i) for i in np.nonzero(2 * radius + 2 * margin > cell)[0]) if broadphase == Broadphase.GRID else ()
+    n_static = sum(1 for i in range(B) for j in range(i + 1, B) if dyn[i] or dyn[j])
+    if pair_capacity is None:
+        if broadphase == Broadphase.ALL_PAIRS:
+            pair_capacity = max(1, n_static)
+        else:
+            pair_capacity = max(1, min(n_static, 8 * sum(dyn) + len(large) * B))
+    pair_capacity = int(pair_capacity)
+    if pair_capacity < 1:
+        raise ValueError(f"pair_capacity must be >= 1, got {pair_capacity}")
+    _scalar("inside_tolerance", inside_tolerance, lo=0.0, unit="(relative)")
+    _scalar("penetration_limit", penetration_limit, lo=0.0, lo_open=True, unit="(relative)")
+    if int(grid_cell_capacity) < 1:
+        raise ValueError("grid_cell_capacity must be >= 1")
+
+    K = max(max(len(p.halfedges_around_vertex(v)) for v in range(p.n_vertices)) for p in polys)
+    V = packed.max_vertices
+    stars = [_stars(p, V, K) for p in polys]
+
+    config = BlockConfig(
+        n_blocks=B,
+        max_vertices=V,
+        max_faces=packed.max_faces,
+        max_halfedges=packed.max_halfedges,
+        max_edges=packed.max_edges,
+        max_valence=K,
+        motion=motion,
+        pair_capacity=pair_capacity,
+        fcp_iterations=it,
+        broadphase=broadphase,
+        prescribed_direction=tuple(tuple(float(c) for c in r) for r in pdir),
+        aabb_margin=float(margin),
+        grid_cell_size=float(cell),
+        grid_cell_capacity=int(grid_cell_capacity),
+        large_blocks=large,
+        edge_contacts=bool(edge_contacts),
+        inside_tolerance=float(inside_tolerance),
+        penetration_limit=float(penetration_limit),
+    )
+
+    f = float_dtype()
+    i32 = jnp.int32
+
+    def idx(a):
+        return jnp.asarray(np.where(np.asarray(a) < 0, 0, a), i32)
+
+    shape = BlockShape(
+        vertices=jnp.asarray(packed.vertices, f),
+        vertex_mask=jnp.asarray(packed.vertex_mask),
+        face_normal=jnp.asarray(packed.face_normal, f),
+        face_offset=jnp.asarray(packed.face_offset, f),
+        face_mask=jnp.asarray(packed.face_mask),
+        edges=idx(packed.edges),
+        edge_mask=jnp.asarray(packed.edge_mask),
+        he_vert=idx(packed.he_vert),
+        he_next=idx(packed.he_next),
+        he_pair=idx(packed.he_pair),
+        he_face=idx(packed.he_face),
+        halfedge_mask=jnp.asarray(packed.halfedge_mask),
+        star_face=jnp.asarray(np.stack([s[0] for s in stars]), i32),
+        star_vertex=jnp.asarray(np.stack([s[1] for s in stars]), i32),
+        star_mask=jnp.asarray(np.stack([s[2] for s in stars])),
+        volume=jnp.asarray(packed.volume, f),
+        inertia_unit=jnp.asarray(packed.inertia_unit_density, f),
+        radius=jnp.asarray(packed.bounding_radius, f),
+    )
+    params = BlockParams(
+        density=jnp.asarray(dens, f),
+        friction_angle=jnp.asarray(math.radians(phi), f),
+        cohesion=jnp.asarray(coh, f),
+        tensile_strength=jnp.asarray(ten, f),
+        normal_stiffness=jnp.asarray(kn, f),
+        shear_stiffness=jnp.asarray(ks, f),
+        damping_ratio=jnp.asarray(zeta, f),
+        stroke=jnp.asarray(S, f),
+        period=jnp.asarray(T, f),
+    )
+    state = _initial_state(config, shape, pos, ori, vel, om)
+    return config, params, state
+
+
+def _initial_state(config: BlockConfig, shape: BlockShape, pos, ori, vel, om) -> BlockState:
+    f = shape.vertices.dtype
+    P, S = config.pair_capacity, config.contact_slots
+    pairs = np.zeros((P, 2), np.int32)
+    mask = np.zeros(P, bool)
+    st = np.asarray(config.static_pairs, np.int32).reshape(-1, 2)
+    if config.broadphase == Broadphase.ALL_PAIRS and len(st) <= P:
+        pairs[: len(st)] = st
+    return BlockState(
+        shape=shape,
+        x=jnp.asarray(pos, f),
+        q=jnp.asarray(ori, f),
+        v=jnp.asarray(vel, f),
+        omega=jnp.asarray(om, f),
+        x0=jnp.asarray(pos, f),
+        q0=jnp.asarray(ori, f),
+        pairs=jnp.asarray(pairs),
+        pair_mask=jnp.asarray(mask),
+        plane=jnp.zeros((P, 3), f),
+        plane_valid=jnp.zeros(P, bool),
+        shear=jnp.zeros((P, S, 3), f),
+        slot_active=jnp.zeros((P, S), bool),
+    )
+
+
+def resize_pairs(config: BlockConfig, state: BlockState, pair_capacity: int):
+    """Host: a new config and state with a different pair buffer (after ``CONTACT_OVERFLOW``).
+
+    The contact history (planes, shear) is dropped: call between steps, re-run the chunk.
+    Returns ``(config, state)``.
+    """
+    pair_capacity = int(pair_capacity)
+    if pair_capacity < 1:
+        raise ValueError(f"pair_capacity must be >= 1, got {pair_capacity}")
+    config = dataclasses.replace(config, pair_capacity=pair_capacity)
+    fresh = _initial_state(config, state.shape, state.x, state.q, state.v, state.omega)
+    return config, fresh.replace(x0=state.x0, q0=state.q0)

@@ -1,0 +1,89 @@
+"""Unit-quaternion helpers for block orientations (jit/vmap/grad-safe) and a host constructor.
+
+Convention: ``q = (w, x, y, z)``, a unit quaternion rotating BODY-frame vectors into the WORLD
+frame: ``x_world = R(q) @ x_body + centroid``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import jax.numpy as jnp
+
+__all__ = ["quat_matrix", "quat_mul", "quat_integrate", "quat_from_axis_angle", "safe_norm"]
+
+
+def safe_norm(v, axis=-1, keepdims=False, eps=1e-30):
+    """Euclidean norm with a finite gradient at ``v = 0`` (gradient 0 there)."""
+    s = jnp.sum(v * v, axis=axis, keepdims=keepdims)
+    pos = s > eps
+    return jnp.where(pos, jnp.sqrt(jnp.where(pos, s, 1.0)), 0.0)
+
+
+def quat_matrix(q):
+    """Rotation matrices of unit quaternions.
+
+    Args:
+      q: [..., 4] (w, x, y, z), body -> world.
+    Returns:
+      [..., 3, 3] rotation matrices.
+    """
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    r00 = 1 - 2 * (y * y + z * z)
+    r01 = 2 * (x * y - w * z)
+    r02 = 2 * (x * z + w * y)
+    r10 = 2 * (x * y + w * z)
+    r11 = 1 - 2 * (x * x + z * z)
+    r12 = 2 * (y * z - w * x)
+    r20 = 2 * (x * z - w * y)
+    r21 = 2 * (y * z + w * x)
+    r22 = 1 - 2 * (x * x + y * y)
+    return jnp.stack(
+        [jnp.stack([r00, r01, r02], -1), jnp.stack([r10, r11, r12], -1), jnp.stack([r20, r21, r22], -1)], -2
+    )
+
+
+def quat_mul(a, b):
+    """Hamilton product ``a * b`` of [..., 4] quaternions (w, x, y, z)."""
+    aw, ax, ay, az = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+    bw, bx, by, bz = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    return jnp.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ],
+        -1,
+    )
+
+
+def quat_integrate(q, omega, dt):
+    """Rotate ``q`` by the world-frame angular velocity ``omega`` over ``dt`` and renormalise.
+
+    Exact exponential map ``q' = exp(omega dt / 2) * q``; ``sin(a)/a`` uses a Taylor series near 0 so
+    the gradient is finite at ``omega = 0``.
+
+    Args:
+      q: [..., 4] unit quaternions.  omega: [..., 3] rad/s (world frame).  dt: s.
+    Returns:
+      [..., 4] unit quaternions.
+    """
+    half = 0.5 * dt * omega
+    a2 = jnp.sum(half * half, axis=-1, keepdims=True)
+    small = a2 < 1e-8
+    a = jnp.sqrt(jnp.where(small, 1.0, a2))
+    sinc = jnp.where(small, 1.0 - a2 / 6.0, jnp.sin(a) / a)
+    cos = jnp.where(small, 1.0 - a2 / 2.0, jnp.cos(a))
+    dq = jnp.concatenate([cos, sinc * half], axis=-1)
+    out = quat_mul(dq, q)
+    return out / jnp.linalg.norm(out, axis=-1, keepdims=True)
+
+
+def quat_from_axis_angle(axis, angle) -> np.ndarray:
+    """Host helper: unit quaternion (w, x, y, z) of a rotation by ``angle`` (rad) about ``axis`` [3]."""
+    axis = np.asarray(axis, dtype=np.float64)
+    n = np.linalg.norm(axis)
+    if axis.shape != (3,) or not np.isfinite(n) or n == 0:
+        raise ValueError(f"axis must be a finite non-zero 3-vector, got {axis}")
+    axis = axis / n
+    return np.concatenate([[np.cos(0.5 * angle)], np.sin(0.5 * angle) * axis])
