@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rockjax.scenes.base import empty_neighbours
-from rockjax.sph.neighbours import rebuild
+from rockjax.sph.neighbours import range_capacity, rebuild
 from rockjax.types import Config, GridSpec, Kind, Particles, Status
 
 
@@ -51,36 +51,51 @@ def _check(x, n_fluid, periodic, radius=0.1, K=64, C=64, box=(1.0, 0.6, 0.5), pa
     return cfg, xs, idx, kinds, expected, int(status), int(nbrs.max_count)
 
 
+NF_SEG, NW_SEG = 150, 60  # fixed segment lengths (real particles + padding): few shapes, few compiles
+
+
 @settings(max_examples=12, deadline=None)
 @given(seed=st.integers(0, 10_000), periodic_y=st.booleans(), periodic_x=st.booleans(),
-       n=st.integers(5, 150), n_wall=st.integers(0, 60))
+       n=st.integers(5, NF_SEG), n_wall=st.integers(0, NW_SEG))
 def test_matches_brute_force(seed, periodic_y, periodic_x, n, n_wall):
+    """Random clouds (with padding slots in both segments) give exactly the brute-force pairs."""
     rng = np.random.default_rng(seed)
     box = np.array([1.0, 0.6, 0.5])
-    x = rng.uniform(0, 1, (n + n_wall, 3)) * box
+    nw_seg = NW_SEG if n_wall else 0
+    x = rng.uniform(0, 1, (NF_SEG + nw_seg, 3)) * box
+    pads = list(range(n, NF_SEG)) + list(range(NF_SEG + n_wall, NF_SEG + nw_seg))
     periodic = (periodic_x, periodic_y, False)
-    cfg, xs, idx, kinds, expected, status, _ = _check(x, n, periodic, box=tuple(box))
+    cfg, xs, idx, kinds, expected, status, _ = _check(x, NF_SEG, periodic, box=tuple(box), pad_kinds=pads)
     assert status == 0, Status.describe(status)
-    for i in range(n):
+    pad_rows = set(np.nonzero(kinds == Kind.PAD)[0].tolist())
+    assert len(pad_rows) == len(pads)
+    for i in range(NF_SEG):
+        if i in pad_rows:
+            continue
         got = set(idx[i].tolist()) - {i}
+        assert not (got & pad_rows)
+        want = expected[i] - pad_rows
         # distances computed in float32 on device: ignore pairs within 1e-5 of the radius
-        d = xs[list(got ^ expected[i])] - xs[i] if got ^ expected[i] else np.zeros((0, 3))
+        d = xs[list(got ^ want)] - xs[i] if got ^ want else np.zeros((0, 3))
         for a in range(3):
             if periodic[a] and len(d):
                 d[:, a] -= cfg.grid.lengths[a] * np.round(d[:, a] / cfg.grid.lengths[a])
-        assert np.all(np.abs(np.linalg.norm(d, axis=1) - 0.1) < 1e-5), (i, got ^ expected[i])
+        assert np.all(np.abs(np.linalg.norm(d, axis=1) - 0.1) < 1e-5), (i, got ^ want)
 
 
 def test_clustered_cells_and_padding():
-    """Many particles in one cell (near-full), isolated ones (near-empty), padding never listed."""
+    """Many particles in one sub-cell (exactly full), isolated ones (near-empty), padding never listed."""
     rng = np.random.default_rng(0)
     cluster = 0.3 + 0.02 * rng.uniform(size=(40, 3))
     lone = np.array([[0.9, 0.5, 0.45], [0.05, 0.05, 0.05]])
     walls = rng.uniform(0, 1, (30, 3)) * [1.0, 0.6, 0.5]
     x = np.concatenate([cluster, lone, walls])
     pads = [3, 7]
-    cfg, xs, idx, kinds, expected, status, max_count = _check(x, 42, (False, False, False), pad_kinds=pads)
-    assert status == 0
+    # the 40 clustered particles share one search sub-cell: a range capacity of exactly 40 slots
+    C = 40 * 24 // 5  # range_capacity = ceil8(5/24 * C) = 40 (run mode: x has >= 5 sub-cells)
+    cfg, xs, idx, kinds, expected, status, max_count = _check(x, 42, (False, False, False), pad_kinds=pads, C=C)
+    assert range_capacity(cfg)[0] == 40
+    assert status == 0, Status.describe(status)
     pad_rows = set(np.nonzero(kinds == Kind.PAD)[0].tolist())
     for i in range(42):
         got = set(idx[i].tolist()) - {i}
@@ -94,7 +109,7 @@ def test_clustered_cells_and_padding():
 def test_overflow_is_reported():
     rng = np.random.default_rng(1)
     x = 0.3 + 0.02 * rng.uniform(size=(40, 3))
-    *_, status, max_count = _check(x, 40, (False, False, False), K=8, C=64)
+    *_, status, max_count = _check(x, 40, (False, False, False), K=8, C=192)
     assert status & Status.NEIGHBOUR_OVERFLOW and max_count == 39
     *_, status, _ = _check(x, 40, (False, False, False), K=64, C=16)
     assert status & Status.CELL_OVERFLOW

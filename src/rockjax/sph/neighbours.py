@@ -1,18 +1,30 @@
 """Neighbour search: cell lists by sorting, Verlet lists with a skin, overflow reporting.
 
 Particles live in two static segments of the arrays: fluid ``[0, n_fluid)`` and walls
-``[n_fluid, n_particles)``. At each rebuild every segment is sorted by grid cell
-(``sort_by_cell``), so the particles of a run of consecutive x-cells are one contiguous range
-of their segment. Only fluid-segment particles get a row ``idx [n_fluid, K]`` (fluid and wall
-neighbours); what wall particles need is summed over the transpose of these rows.
+``[n_fluid, n_particles)``. Only fluid-segment particles get a row ``idx [n_fluid, K]`` (fluid and
+wall neighbours); what wall particles need is summed over the transpose of these rows.
 
-A row's candidates are 9 ranges per segment (3 consecutive x-cells for each of the 3x3 (y, z)
-neighbour cells), or 27 single-cell ranges when x is periodic. Candidates closer than
-``cutoff + skin`` are compacted with a cumulative sum; unused slots hold the row's own index.
+The search uses the *sub-cell grid* ``search_grid(config.grid)``: the config's cells halved along
+every axis (sub-cells at least ``list_radius / 2`` wide), numbered x-fastest. At each rebuild every
+segment is sorted by sub-cell (``sort_by_cell``; the wall segment only when it is not sorted
+already, which after the first build is the case unless walls move), and the two sorted segments
+are merged (two binary searches, no sort) into one order of all particles. In that order the
+particles of a run of 5 consecutive x-sub-cells are one contiguous range, so a row's candidates are
+25 ranges (one per (dy, dz) in -2..2; 125 single sub-cells when x is periodic), each read into a
+fixed ``range_capacity(config)`` slots. Candidates closer than ``cutoff + skin`` are compacted
+without a scatter and without a long cumulative sum (both are serial and slow on XLA:CPU): the
+row's hit mask is packed into 32-bit words, and the k-th neighbour is found from word popcounts
+(prefix sums by small triangular matmuls) and a 5-step select within its word. Unused slots hold
+the row's own index.
 
-Nothing is dropped silently: a cell run holding more than ``cell_capacity`` particles, or a row
-with more neighbours than its capacity, sets a ``Status`` bit and the host driver regrows and
-reruns. Indices are integers, outside any gradient.
+Sub-cells halve the candidate volume of the classic 27-cell search (125 (r/2)^3 vs 27 r^3 around
+a row), and merging the segments halves the slot count again; together with the compaction this
+measured ~3.5-4x faster than the previous build (per-segment 3-cell runs, cumsum + scatter).
+
+Nothing is dropped silently: a range holding more than its capacity sets ``CELL_OVERFLOW`` (the
+reported ``max_run`` is scaled to ``Config.cell_capacity`` units, so the driver's regrow rule
+works unchanged), a row with more than ``neighbour_capacity`` neighbours sets
+``NEIGHBOUR_OVERFLOW``. Indices are integers, outside any gradient.
 
 Pair geometry is gathered component by component (1-D gathers): on the CPU, gathering a
 ``[N, 3]`` array by rows was measured 5x slower than three 1-D gathers.
@@ -21,6 +33,7 @@ Pair geometry is gathered component by component (1-D gathers): on the CPU, gath
 from __future__ import annotations
 
 import itertools
+import math
 from typing import NamedTuple
 
 import jax
@@ -29,7 +42,7 @@ import numpy as np
 
 from ..types import Config, GridSpec, Kind, NeighbourList, Particles, Status
 
-__all__ = ["cell_coords", "sort_by_cell", "build", "rebuild", "pair_geometry", "safe_norm", "wrap_positions",
+__all__ = ["cell_coords", "search_grid", "range_capacity", "sort_by_cell", "build", "rebuild", "pair_geometry", "safe_norm", "wrap_positions",
            "min_image", "transpose_sum", "Pairs", "pairs"]
 
 
@@ -55,11 +68,22 @@ def _ids(x, kind, grid: GridSpec):
 
 
 def sort_by_cell(particles: Particles, config: Config) -> Particles:
-    """Reorder each segment (fluid, walls) by cell id (stable); padding goes to its segment's end."""
-    ids, _, _ = _ids(jax.lax.stop_gradient(particles.x), particles.kind, config.grid)
+    """Reorder each segment (fluid, walls) by search sub-cell id (stable); padding goes to its segment's end.
+
+    The wall segment is re-sorted only when it is out of order (walls that do not move stay sorted
+    after the first build, and an argsort of them would cost as much as the fluid's).
+    """
+    sg = search_grid(config.grid)
+    ids, _, _ = _ids(jax.lax.stop_gradient(particles.x), particles.kind, sg)
     nf = config.n_fluid
-    perm = jnp.concatenate([jnp.argsort(ids[:nf], stable=True),
-                            nf + jnp.argsort(ids[nf:], stable=True)]) if config.n_wall else jnp.argsort(ids, stable=True)
+    if not config.n_wall:
+        perm = jnp.argsort(ids, stable=True)
+    else:
+        idw = ids[nf:]
+        is_sorted = jnp.all(idw[1:] >= idw[:-1])
+        perm_w = jax.lax.cond(is_sorted, lambda a: jnp.arange(a.shape[0], dtype=jnp.int32),
+                              lambda a: jnp.argsort(a, stable=True).astype(jnp.int32), idw)
+        perm = jnp.concatenate([jnp.argsort(ids[:nf], stable=True).astype(jnp.int32), nf + perm_w])
     return jax.tree_util.tree_map(lambda a: a[perm], particles)
 
 
@@ -122,91 +146,153 @@ def pairs(x, kind, idx, config: Config) -> Pairs:
     return Pairs(d=d, r=r, r2=r2, idx=idx, mask=mask)
 
 
-def _offsets(config: Config) -> np.ndarray:
-    """Static (dx, dy, dz) cell offsets searched; with run length 3, dx = 0 stands for -1..+1."""
+def search_grid(grid: GridSpec) -> GridSpec:
+    """The sub-cell grid of the search: ``grid`` with every cell halved (same domain and periods)."""
+    return GridSpec(grid.origin, tuple(c / 2 for c in grid.cell_size), tuple(2 * n for n in grid.shape),
+                    grid.periodic)
+
+
+def _run_mode(sg: GridSpec) -> bool:
+    """Whether x-sub-cells are searched as runs of 5 (x not periodic and at least 5 sub-cells)."""
+    return (not sg.periodic[0]) and sg.shape[0] >= 5
+
+
+def _offsets(sg: GridSpec) -> np.ndarray:
+    """Static (dx, dy, dz) sub-cell offsets searched; in run mode dx = 0 stands for -2..+2."""
     per_axis = []
     for ax in range(3):
-        n, periodic = config.grid.shape[ax], config.grid.periodic[ax]
-        if ax == 0 and config.run_length == 3:
+        n, periodic = sg.shape[ax], sg.periodic[ax]
+        if ax == 0 and _run_mode(sg):
             per_axis.append([0])
-        elif periodic and n < 3:
+        elif periodic and n < 5:
             per_axis.append(list(range(n)))  # distinct images only
         else:
-            per_axis.append([-1, 0, 1])
+            per_axis.append([-2, -1, 0, 1, 2])
     return np.array(list(itertools.product(*per_axis)), dtype=np.int32)
 
 
-def _ranges(c_rows, starts, offset: int, config: Config):
-    """Candidate ranges [R_rows, n_off] (global start, end) in a segment for rows in cells ``c_rows``."""
-    grid = config.grid
-    shape = np.asarray(grid.shape, np.int32)
-    periodic = np.asarray(grid.periodic)
-    offs = jnp.asarray(_offsets(config))
+def range_capacity(config: Config) -> tuple[int, float]:
+    """Slots per candidate range and its volume ratio to a ``Config.cell_capacity`` run.
+
+    ``cell_capacity`` counts particles in ``run_length`` consecutive config cells; a search range is
+    5 (run mode) or 1 sub-cell of 1/8 the volume. Returns ``(L, ratio)`` with
+    ``L = ceil8(ratio * cell_capacity)``.
+    """
+    ratio = (5.0 / 24.0) if _run_mode(search_grid(config.grid)) else 1.0 / 8.0
+    return max(8, int(math.ceil(ratio * config.cell_capacity / 8.0) * 8)), ratio
+
+
+def _ranges(c_rows, starts, sg: GridSpec):
+    """Candidate ranges [R_rows, n_off] (start, end) in the merged order for rows in sub-cells ``c_rows``."""
+    shape = np.asarray(sg.shape, np.int32)
+    periodic = np.asarray(sg.periodic)
+    offs = jnp.asarray(_offsets(sg))
     cn = c_rows[:, None, :] + offs[None, :, :]
     valid = jnp.all(jnp.where(periodic, True, (cn >= 0) & (cn < shape)), axis=-1)
     cn = jnp.where(periodic, jnp.mod(cn, shape), jnp.clip(cn, 0, shape - 1))
-    if config.run_length == 3:
-        lo = cn.at[..., 0].set(jnp.maximum(c_rows[:, None, 0] - 1, 0))
-        hi = cn.at[..., 0].set(jnp.minimum(c_rows[:, None, 0] + 1, shape[0] - 1))
+    if _run_mode(sg):
+        lo = cn.at[..., 0].set(jnp.maximum(c_rows[:, None, 0] - 2, 0))
+        hi = cn.at[..., 0].set(jnp.minimum(c_rows[:, None, 0] + 2, shape[0] - 1))
     else:
         lo = hi = cn
-    start = starts[_flat(lo, grid.shape)]
-    end = jnp.where(valid, starts[_flat(hi, grid.shape) + 1], start)
-    return start + offset, end + offset
+    start = starts[_flat(lo, sg.shape)]
+    end = jnp.where(valid, starts[_flat(hi, sg.shape) + 1], start)
+    return start, end
 
 
-def _compact(rows, x_rows, start, end, x, capacity: int, config: Config):
-    """Compact candidates within the list radius into ``[R, capacity]``; returns (idx, counts)."""
-    L = config.cell_capacity
-    n = x.shape[0]
-    r_list2 = config.list_radius**2
-    ar = jnp.arange(L, dtype=jnp.int32)
-    grid = config.grid
-    xs = tuple(x[:, a] for a in range(3))
+def _prefix_sum(a, block: int = 16):
+    """Inclusive prefix sum along axis 1 of a float32 array [R, M] by two small triangular matmuls.
 
-    def one_row(args):
-        i, xi, st, en = args
-        j = (st[:, None] + ar[None, :]).reshape(-1)
-        ok = j < jnp.repeat(en, L, total_repeat_length=en.shape[0] * L)
-        j = jnp.minimum(j, n - 1)
-        r2 = sum(min_image(xi[a] - xs[a][j], a, grid) ** 2 for a in range(3))
-        m = ok & (r2 < r_list2) & (j != i)
-        pos = jnp.cumsum(m.astype(jnp.int32)) - 1
-        out = jnp.full((capacity,), i, jnp.int32).at[jnp.where(m, pos, capacity)].set(j, mode="drop")
-        return out, jnp.sum(m.astype(jnp.int32))
+    Exact for integer-valued entries with sums below 2^24. ``jnp.cumsum`` over a long axis was
+    measured ~20x slower per element on XLA:CPU.
+    """
+    n, m = a.shape
+    mp = -(-m // block) * block
+    nb = mp // block
+    a = jnp.pad(a, ((0, 0), (0, mp - m))).reshape(n, nb, block)
+    inner = jnp.dot(a, jnp.triu(jnp.ones((block, block), a.dtype)), precision=jax.lax.Precision.HIGHEST)
+    offs = jnp.dot(inner[:, :, -1], jnp.triu(jnp.ones((nb, nb), a.dtype), 1), precision=jax.lax.Precision.HIGHEST)
+    return (inner + offs[:, :, None]).reshape(n, mp)[:, :m]
 
-    if rows.shape[0] == 0:
-        return jnp.zeros((0, capacity), jnp.int32), jnp.zeros((0,), jnp.int32)
-    return jax.lax.map(one_row, (rows, x_rows, start, end), batch_size=min(rows.shape[0], 1024))
+
+def _select(hit, slot, capacity: int):
+    """Compact each row's hits: ``(out [R, capacity] slots or -1, count [R])``.
+
+    Args:
+        hit: [R, T] bool, T a multiple of 32; slot: [R, T] int32 values to keep.
+    """
+    n, t = hit.shape
+    w_count = t // 32
+    words = (hit.reshape(n, w_count, 32).astype(jnp.uint32)
+             << jnp.arange(32, dtype=jnp.uint32)).sum(-1, dtype=jnp.uint32)
+    pc = jax.lax.population_count(words).astype(jnp.int32)
+    incl = _prefix_sum(pc.astype(jnp.float32)).astype(jnp.int32)
+    count = incl[:, -1]
+    rows = jnp.arange(n, dtype=jnp.int32)[:, None]
+    # word holding the k-th hit = number of words whose inclusive count is <= k
+    marks = jnp.zeros((n, capacity + 1), jnp.float32).at[rows, jnp.minimum(incl, capacity)].add(1.0)
+    wk = jnp.minimum(_prefix_sum(marks[:, :capacity]).astype(jnp.int32), w_count - 1)
+    k = jnp.arange(capacity, dtype=jnp.int32)[None, :]
+    word = jnp.take_along_axis(words, wk, axis=1)
+    rank = k - jnp.take_along_axis(incl - pc, wk, axis=1)
+    pos = jnp.zeros_like(rank)
+    for s in (16, 8, 4, 2, 1):  # select the rank-th set bit of the word
+        low = jax.lax.population_count((word >> pos.astype(jnp.uint32)) & jnp.uint32((1 << s) - 1)).astype(jnp.int32)
+        go = rank >= low
+        rank = jnp.where(go, rank - low, rank)
+        pos = jnp.where(go, pos + s, pos)
+    out = jnp.take_along_axis(slot, wk * 32 + pos, axis=1)
+    return jnp.where(k < count[:, None], out, -1), count
 
 
 def build(x, kind, config: Config):
     """Verlet list of particles sorted by ``sort_by_cell``.
 
     Args:
-        x: [N, 3] positions m (each segment sorted by cell); kind: [N] ``Kind`` codes.
+        x: [N, 3] positions m (each segment sorted by sub-cell); kind: [N] ``Kind`` codes.
     Returns:
-        ``(idx [n_fluid, K], status, max_count, max_run)``.
+        ``(idx [n_fluid, K], status, max_count, max_run)``; ``max_run`` in ``cell_capacity`` units.
     """
-    grid = config.grid
+    sg = search_grid(config.grid)
     x = jax.lax.stop_gradient(x)
-    nf, nw = config.n_fluid, config.n_wall
-    ids, c, inside = _ids(x, kind, grid)
-    cells = jnp.arange(grid.n_cells + 1, dtype=ids.dtype)
-    starts_f = jnp.searchsorted(ids[:nf], cells, side="left").astype(jnp.int32)
-    start, end = _ranges(c[:nf], starts_f, 0, config)
+    nf, nw, n = config.n_fluid, config.n_wall, config.n_particles
+    K = config.neighbour_capacity
+    ids, c, inside = _ids(x, kind, sg)
+    # merge the two sorted segments: position of each particle in the joint cell order
+    ar_f = jnp.arange(nf, dtype=jnp.int32)
+    pos_f = ar_f + jnp.searchsorted(ids[nf:], ids[:nf], side="left").astype(jnp.int32) if nw else ar_f
     if nw:
-        starts_w = jnp.searchsorted(ids[nf:], cells, side="left").astype(jnp.int32)
-        sw, ew = _ranges(c[:nf], starts_w, nf, config)
-        start, end = jnp.concatenate([start, sw], 1), jnp.concatenate([end, ew], 1)
-    run = jnp.max(end - start)
-    idx, count = _compact(jnp.arange(nf, dtype=jnp.int32), x[:nf], start, end, x, config.neighbour_capacity, config)
-    max_count = jnp.max(count)
+        pos_w = jnp.arange(nw, dtype=jnp.int32) + jnp.searchsorted(ids[:nf], ids[nf:], side="right").astype(jnp.int32)
+        perm = jnp.zeros((n,), jnp.int32).at[jnp.concatenate([pos_f, pos_w])].set(
+            jnp.arange(n, dtype=jnp.int32), unique_indices=True)
+    else:
+        perm = jnp.arange(n, dtype=jnp.int32)
+    cells = jnp.arange(sg.n_cells + 1, dtype=ids.dtype)
+    starts = jnp.searchsorted(ids[perm], cells, side="left").astype(jnp.int32)
+    start, end = _ranges(c[:nf], starts, sg)
+    L, ratio = range_capacity(config)
+    R = start.shape[1]
+    T = -(-R * L // 32) * 32
+    ar = jnp.arange(L, dtype=jnp.int32)
+    slot = (start[:, :, None] + ar).reshape(nf, R * L)
+    ok = (ar[None, None, :] < (end - start)[:, :, None]).reshape(nf, R * L)
+    xm = [jnp.concatenate([x[:, a][perm], jnp.zeros((L,), x.dtype)]) for a in range(3)]
+    d = [min_image(x[:nf, a, None] - xm[a][slot], a, config.grid) for a in range(3)]
+    hit = ok & (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < config.list_radius**2) & (slot != pos_f[:, None])
+    if T > R * L:
+        hit = jnp.pad(hit, ((0, 0), (0, T - R * L)))
+        slot = jnp.pad(slot, ((0, 0), (0, T - R * L)))
+    out, count = _select(hit, slot, K)
+    pm = jnp.concatenate([perm, jnp.zeros((L,), jnp.int32)])
+    idx = jnp.where(out >= 0, pm[jnp.maximum(out, 0)], ar_f[:, None])
+    max_count = jnp.max(count) if nf else jnp.zeros((), jnp.int32)
+    run = jnp.max(end - start) if nf else jnp.zeros((), jnp.int32)
     active = kind != Kind.PAD
-    status = jnp.where(max_count > config.neighbour_capacity, Status.NEIGHBOUR_OVERFLOW, 0)
-    status |= jnp.where(run > config.cell_capacity, Status.CELL_OVERFLOW, 0)
+    status = jnp.where(max_count > K, Status.NEIGHBOUR_OVERFLOW, 0)
+    status |= jnp.where(run > L, Status.CELL_OVERFLOW, 0)
     status |= jnp.where(jnp.all(inside | ~active), 0, Status.OUT_OF_DOMAIN)
-    return idx, status.astype(jnp.int32), max_count.astype(jnp.int32), run.astype(jnp.int32)
+    max_run = jnp.ceil(run.astype(jnp.float32) / ratio).astype(jnp.int32)
+    return idx, status.astype(jnp.int32), max_count.astype(jnp.int32), max_run
 
 
 def rebuild(particles: Particles, config: Config):
