@@ -79,11 +79,11 @@ def resize(state: State, config: Config) -> State:
     state = state.replace(status=jnp.zeros((), jnp.int32))
     if state.nbrs is not None:
         state = state.replace(nbrs=empty_neighbours(config, state.particles.x))
-    if state.blocks is not None:
+    if state.blocks is not None and state.blocks.pairs.shape[0] != config.blocks.pair_capacity:
         from . import blocks
 
-        if hasattr(blocks, "resize"):
-            state = state.replace(blocks=blocks.resize(state.blocks, config.blocks))
+        _, fresh = blocks.resize_pairs(config.blocks, state.blocks, config.blocks.pair_capacity)
+        state = state.replace(blocks=fresh)
     return state
 
 
@@ -105,9 +105,9 @@ def _round8(n: float) -> int:
 def _grow(config: Config, state: State, bits: int) -> Config:
     changes = {}
     if bits & Status.CONTACT_OVERFLOW:
-        from . import blocks
-
-        changes["blocks"] = blocks.grow(config.blocks, state.blocks)
+        changes["blocks"] = config.blocks.replace(pair_capacity=_round8(2 * config.blocks.pair_capacity)) \
+            if hasattr(config.blocks, "replace") else dataclasses.replace(
+                config.blocks, pair_capacity=_round8(2 * config.blocks.pair_capacity))
     if bits & Status.NEIGHBOUR_OVERFLOW:
         changes["neighbour_capacity"] = max(_round8(1.2 * int(state.nbrs.max_count)), config.neighbour_capacity + 8)
     if bits & Status.CELL_OVERFLOW:

@@ -35,13 +35,15 @@ def coupling_params(*, dx: float, c0: float, stiffness: float | None = None, dam
                     interaction_distance: float | None = None) -> CouplingParams:
     """Seed Eq 22 constants for resolution ``dx`` [m] and sound speed ``c0`` [m/s].
 
-    Defaults: ``r0 = dx`` (the particle spacing); ``K_S = (c0 / r0)^2`` [1/s^2], so a particle
-    arriving at the speed of sound is stopped within about r0 and the penalty oscillation
-    ``sqrt(K_S) dt`` stays ~0.3 at the fluid's Courant step; ``K_D = sqrt(K_S)`` [1/s] (half of
+    Defaults: ``r0 = dx / 2`` (half the particle spacing: a particle at rest against a face then
+    fills the space up to it, as a lattice particle of volume dx^3 would, so the displaced volume
+    -- hence buoyancy -- is unbiased); ``K_S = (2 c0 / dx)^2`` [1/s^2], so a particle arriving
+    at the flow's largest speed (~c0 / 10) stops within ~r0 / 10 and the penalty oscillation
+    ``sqrt(K_S) dt`` stays ~0.65 at the fluid's Courant step; ``K_D = sqrt(K_S)`` [1/s] (half of
     critical damping).
     """
-    r0 = dx if interaction_distance is None else _positive("interaction_distance", interaction_distance)
-    ks = (c0 / r0) ** 2 if stiffness is None else _positive("penalty stiffness", stiffness)
+    r0 = 0.5 * dx if interaction_distance is None else _positive("interaction_distance", interaction_distance)
+    ks = (2.0 * c0 / dx) ** 2 if stiffness is None else _positive("penalty stiffness", stiffness)
     kd = math.sqrt(ks) if damping is None else float(damping)
     if kd < 0:
         raise ValueError(f"coupling: penalty damping must be >= 0 (got {kd})")
@@ -52,15 +54,17 @@ def coupling_params(*, dx: float, c0: float, stiffness: float | None = None, dam
 
 def sample_block_particles(poly, dx: float, layers: int) -> np.ndarray:
     """Body-frame boundary particles of a convex block: lattice points inside it within
-    ``layers * dx`` of its surface (``[n, 3]`` m). The lattice is centred on the centroid."""
+    ``layers * dx`` of its surface (``[n, 3]`` m). The lattice has a node every dx offset by
+    dx/2 from the centroid, so a box whose sides are whole multiples of dx gets its outer layer
+    dx/2 inside each face (the face is then where the fluid sees it, as for tank walls)."""
     hs = [(np.asarray(n, float), float(d)) for n, d in zip(poly.face_normal, poly.face_offset)]
     ext = np.max(np.abs(poly.vertices), axis=0) + dx
     n_cells = np.ceil(ext / dx).astype(int)
-    lo = -n_cells * dx - 0.5 * dx
-    hi = n_cells * dx + 0.5 * dx
+    lo = -n_cells * dx
+    hi = n_cells * dx
     pts = lattice(lo, hi, dx)
     phi = clearance(pts, hs)  # inside the block: phi >= 0
-    keep = (phi >= 0) & (phi < layers * dx)
+    keep = (phi > 0) & (phi < layers * dx)
     if not np.any(keep):
         raise ValueError(f"block too thin for dx = {dx} m: no boundary particle fits inside it; use a smaller dx")
     return pts[keep]
@@ -154,7 +158,19 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     run_length = 1 if (periodic[0] or grid.shape[0] < 3) else 3
     k, cell_cap = _capacities(h_factor, (cutoff + skin) / dx, run_length)
     dt = stable_dt(params, scheme=scheme, viscosity=Viscosity.ARTIFICIAL, cfl=cfl)
-    dt = min(dt, float(blocks.stable_dt(bconfig, bparams, bstate)))
+    dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
+    if dt_blocks < dt and "normal_stiffness" not in (block_kwargs or {}):
+        # The rock penalty stiffness only has to keep block overlaps small; soften it so the blocks
+        # do not force a smaller step than the water needs (dt ~ 1/sqrt(k)).
+        k_rock = float(bparams.normal_stiffness) * (dt_blocks / dt) ** 2 * 0.98
+        bconfig, bparams, bstate = blocks.make_blocks(
+            list(polyhedra), positions=np.asarray(positions, float), motion=tuple(motion), velocities=velocities,
+            density=density, friction_angle_deg=friction_angle_deg, normal_stiffness=k_rock,
+            **(block_kwargs or {}))
+        params = params.replace(blocks=bparams)
+        dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
+    dt = min(dt, dt_blocks)
+    meta["block_normal_stiffness"] = float(bparams.normal_stiffness)
     config = Config(n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
                     rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap, scheme=scheme,
                     kernel=KernelKind.WENDLAND_C2, viscosity=Viscosity.ARTIFICIAL, wall_model=WallModel.ADAMI,
@@ -409,7 +425,7 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
                          motion=(blocks.Motion.PRESCRIBED,), block_density=2500.0, friction_angle_deg=30.0,
                          fluid_x=water, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi, periodic=periodic,
                          still_level=water_depth, coupling=coupling, c0=c0, h_factor=h_factor,
-                         block_kwargs=dict(stroke=stroke, period=period, direction=[(1.0, 0.0, 0.0)]), meta=meta)
+                         block_kwargs=dict(stroke=stroke, period=period, prescribed_direction=[(1.0, 0.0, 0.0)]), meta=meta)
 
 
 def block_on_incline(*, angle_deg: float = 30.0, friction_angle_deg: float = 20.0, block_size=(0.2, 0.2, 0.1),
