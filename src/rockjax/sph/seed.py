@@ -61,7 +61,7 @@ from .neighbours import Pairs, pairs, transpose_sum, wrap_positions
 from .walls import adami_pressure
 
 __all__ = ["density", "pressure", "forces", "advance", "prime", "lattice_sum", "wall_constants",
-           "LATTICE_REACH"]
+           "wall_repulsion", "energies", "LATTICE_REACH"]
 
 #: ``lattice_sum`` covers lattice offsets up to this many spacings per axis: valid for 2h <= 8 dx.
 LATTICE_REACH = 8
@@ -138,6 +138,35 @@ def wall_repulsion(pr: Pairs, v, vol, kind, params: Params, config: Config):
     ks, kd = wall_constants(params)
     mag = jnp.where(wall, jnp.maximum(ks * (r0 - r) - kd * vn, 0.0), 0.0)
     return jnp.stack([jnp.sum(mag * n[a], axis=1) for a in range(3)], 1)
+
+
+def energies(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -> dict:
+    """Energies [J] of the seed scheme's fluid at the positions of ``P`` (density re-summed there).
+
+    ``kinetic``, ``potential`` (``-m g . x``), ``elastic`` = ``sum m e(rho)`` with
+    ``e = int_rho0^rho p / rho^2 = c0^2 (ln(rho/rho0) + rho0/rho - 1)`` for ``rho > rho0`` and 0
+    below (the clamped law), ``wall`` = the potential of the Eq 22 springs ``sum m K_S (dx - r)^2 / 2``,
+    and ``total``. The inviscid scheme conserves it only approximately: Mueller's symmetrised
+    pressure force is not the gradient of this energy; viscosity and the wall damping dissipate.
+    """
+    f = params.fluid
+    nf = config.n_fluid
+    pr = pairs(P.x, P.kind, nbrs.idx, config)
+    rho = density(pr, P.rho, P.vol, P.kind, params, config)
+    fluid = P.kind == Kind.FLUID
+    m = jnp.where(fluid, f.rho0 * P.vol, 0.0)
+    kinetic = 0.5 * jnp.sum(m * jnp.sum(P.v * P.v, -1))
+    potential = -jnp.sum(m * (P.x @ params.gravity))
+    ratio = jnp.maximum(rho, f.rho0) / f.rho0
+    elastic = jnp.sum(m * f.c0**2 * (jnp.log(ratio) + 1.0 / ratio - 1.0))
+    wall = jnp.zeros((), kinetic.dtype)
+    if config.n_wall:
+        r0 = _spacing(P.vol)
+        near = pr.mask & (pr.r > 0) & (pr.r < r0) & (P.kind[pr.idx] == Kind.WALL) & fluid[:nf, None]
+        ks, _ = wall_constants(params)
+        wall = jnp.sum(m[:nf, None] * jnp.where(near, 0.5 * ks * (r0 - pr.r) ** 2, 0.0))
+    return {"kinetic": kinetic, "potential": potential, "elastic": elastic, "wall": wall,
+            "total": kinetic + potential + elastic + wall}
 
 
 def forces(pr: Pairs, v, rho, p, vol, kind, params: Params, config: Config):
