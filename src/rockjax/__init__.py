@@ -6,26 +6,28 @@ The public API, re-exported explicitly:
   the scheme enums and ``Status`` bits;
 * ``make_step(config) -> step(state, params)``; ``prime``; ``make_rollout`` / ``rollout``;
 * ``simulate(scene, t_end=...)`` (the host driver) and ``SimulationError``;
-* ``scenes`` (built-in scene builders returning a ``Scene``), ``observables``, ``io``.
+* ``scenes`` (built-in scene builders returning a ``Scene``), ``observables``, ``io``;
+* the physics packages: ``blocks`` (3D-DDA rock blocks), ``coupling`` (fluid-block exchange).
 """
 
 __version__ = "0.1.0"
 
-from . import io, observables, scenes
+from . import blocks, coupling, io, observables, scenes
 from .driver import Result, SimulationError, simulate
 from .rollout import make_rollout, rollout
 from .scenes import Scene
 from .step import make_step, prime
 from .types import (
-    Config, DensityDiffusion, FluidParams, GridSpec, KernelKind, Kind, NeighbourList, Params, Particles, Scheme,
-    State, Status, Viscosity, WallModel,
+    Config, Coupling, CouplingParams, CouplingState, DensityDiffusion, FluidParams, GridSpec, KernelKind, Kind,
+    NeighbourList, Params, Particles, Scheme, State, Status, Viscosity, WallModel,
 )
 
 __all__ = [
     "__version__",
     "Config", "Params", "FluidParams", "State", "Particles", "NeighbourList", "GridSpec",
-    "Scheme", "KernelKind", "Viscosity", "WallModel", "DensityDiffusion", "Kind", "Status",
+    "CouplingParams", "CouplingState",
+    "Scheme", "KernelKind", "Viscosity", "WallModel", "DensityDiffusion", "Coupling", "Kind", "Status",
     "make_step", "prime", "make_rollout", "rollout",
     "simulate", "Result", "SimulationError",
-    "Scene", "scenes", "observables", "io",
+    "Scene", "scenes", "observables", "io", "blocks", "coupling",
 ]

@@ -133,11 +133,11 @@ def advance(state: State, params: Params, config: Config) -> State:
 def prime(state: State, params: Params, config: Config) -> State:
     """Rebuild the list and fill accelerations / density rates (and the fluid load on the blocks)
     for the initial positions."""
-    state = refresh(state, config)
     if config.coupling == Coupling.BOUNDARY_PARTICLES:
         from .coupling import boundary_particles
 
         state = state.replace(particles=boundary_particles.place(state.particles, state.blocks, config))
+    state = refresh(state, config)
     if config.n_fluid > 0:
         P = _fluid(config).prime(state.particles, state.nbrs, params, config)
         state = state.replace(particles=P)

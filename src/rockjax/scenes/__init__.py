@@ -2,11 +2,18 @@
 and returns a ``Scene``; ``BUILTIN`` maps CLI names to builders."""
 
 from .base import Scene, check_params, stable_dt
+from .coupled import block_drop, block_on_incline, floating_box, piston_wavemaker, sliding_wedge
 from .fluid import dam_break, hydrostatic_tank
 
 BUILTIN = {
+    "sliding_wedge": sliding_wedge,
     "dam_break": dam_break,
     "hydrostatic_tank": hydrostatic_tank,
+    "piston_wavemaker": piston_wavemaker,
+    "floating_box": floating_box,
+    "block_drop": block_drop,
+    "block_on_incline": block_on_incline,
 }
 
-__all__ = ["Scene", "BUILTIN", "dam_break", "hydrostatic_tank", "check_params", "stable_dt"]
+__all__ = ["Scene", "BUILTIN", "dam_break", "hydrostatic_tank", "sliding_wedge", "piston_wavemaker",
+           "floating_box", "block_drop", "block_on_incline", "check_params", "stable_dt"]
