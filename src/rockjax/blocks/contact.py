@@ -214,7 +214,7 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     u = jnp.where(hist.slot_active[..., None], hist.shear, 0.0)
     u = u - jnp.sum(u * nn, -1, keepdims=True) * nn
     u = u + vt * dt
-    ft = -ks * u - ct * vt
+    ft = -ks * u - ct[..., None] * vt
     cap = fn * jnp.tan(params.friction_angle) + params.cohesion
     fmag = safe_norm(ft)
     slip = fmag > cap
