@@ -48,6 +48,7 @@ class Result:
             ``rho``, ``p``, ``kind``), or None when frames went only to a file.
         path: the HDF5 file written, if any.
         stats: wall time, steps, regrows.
+        observed: ``observe``'s outputs stacked over frames (dict of [F, ...] arrays), or None.
     """
 
     scene: Scene
@@ -56,6 +57,7 @@ class Result:
     frames: Optional[dict]
     path: Optional[str]
     stats: dict
+    observed: Optional[dict] = None
 
 
 def host_frame(state: State) -> dict:
@@ -129,7 +131,8 @@ def _clear(state: State) -> State:
 
 
 def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt: Optional[float] = None,
-             keep_frames: Optional[bool] = None, progress: Optional[bool] = None, max_regrows: int = 8) -> Result:
+             keep_frames: Optional[bool] = None, progress: Optional[bool] = None, max_regrows: int = 8,
+             observe=None) -> Result:
     """Run ``scene`` to ``t_end`` [s] (rounded up to a whole output frame).
 
     Args:
@@ -139,6 +142,8 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
         keep_frames: keep frames in memory (default: when ``out`` is None).
         progress: show a progress bar (default: when stderr is a terminal).
         max_regrows: how many buffer regrowths to try before giving up.
+        observe: optional ``observe(state, params, config) -> dict`` of arrays (gauges, run-up, ...),
+            jitted and evaluated at every frame; stacked into ``Result.observed``.
 
     Raises:
         ValueError: params the config cannot run (checked on the host before the first step).
@@ -176,9 +181,16 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
         config, state, regrows = _handle(config, state, scene.state, params, bits, regrows, max_regrows, primed=False)
     state = _clear(state)
 
+    observed: list[dict] = []
+    obs_fn = None
+    if observe is not None:
+        obs_fn = jax.jit(lambda s, p: observe(s, p, scene.config))
+
     def record(s: State):
         t = float(s.step) * config.dt
         times.append(t)
+        if obs_fn is not None:
+            observed.append(jax.device_get(obs_fn(s, params)))
         frame = host_frame(s)
         if keep_frames:
             frames.append(frame)
@@ -223,8 +235,9 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
         n_fluid = int(np.sum(np.asarray(scene.state.particles.kind) == Kind.FLUID))
     stats = {"wall_s": wall, "steps": steps_done, "regrows": regrows, "n_fluid": n_fluid,
              "particle_steps_per_s": n_fluid * steps_done / max(wall, 1e-9)}
+    obs = {k: np.stack([np.asarray(o[k]) for o in observed]) for k in observed[0]} if observed else None
     return Result(scene=scene.replace(config=config, state=state), state=state, times=np.asarray(times),
-                  frames=stacked, path=out, stats=stats)
+                  frames=stacked, path=out, stats=stats, observed=obs)
 
 
 def _handle(config, bad_state, start_state, params, bits, regrows, max_regrows, primed=True):

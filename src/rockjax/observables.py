@@ -16,7 +16,7 @@ from .sph.neighbours import min_image
 from .types import Config, Kind, Params, Scheme, State
 
 __all__ = ["surge_front", "smooth_max", "energies", "probe_pressure", "fluid_mass", "gauge_elevation",
-           "runup", "smooth_runup", "block_energies", "impact_velocity"]
+           "runup", "smooth_runup", "block_energies", "impact_velocity", "scene_observer"]
 
 
 def smooth_max(values, weights_mask, temperature):
@@ -166,3 +166,32 @@ def impact_velocity(times, block_x, block_v, *, block, still_level, bottom_offse
     if hit.size == 0:
         return None
     return np.asarray(block_v)[hit[0], block]
+
+
+def scene_observer(meta: dict, *, band: float | None = None, temperature: float | None = None):
+    """``observe(state, params, config) -> dict`` for ``simulate(observe=...)`` from a scene's meta:
+    ``gauges`` [M] m (free-surface elevation at ``meta["gauges"]``), ``runup`` (hard) and
+    ``smooth_runup`` [m] on ``meta["runup_slope"]`` (band 2 dx, temperature dx/4 by default),
+    and the block poses when the scene has blocks. Keys absent from meta are skipped."""
+    dx = float(meta.get("dx") or 0.0)
+    still = float(meta.get("still_level", 0.0))
+    band = 2.0 * dx if band is None else band
+    temperature = 0.25 * dx if temperature is None else temperature
+
+    def observe(state: State, params: Params, config: Config) -> dict:
+        out = {}
+        g = meta.get("gauges")
+        if g is not None and state.particles is not None:
+            out["gauges"] = gauge_elevation(state, params, config, jnp.asarray(g["xy"]),
+                                            bottom_z=jnp.asarray(g["bottom_z"]), still_level=still)
+        sl = meta.get("runup_slope")
+        if sl is not None and state.particles is not None:
+            kw = dict(slope_point=jnp.asarray(sl["point"]), slope_normal=jnp.asarray(sl["normal"]), band=band,
+                      still_level=still, x_min=sl.get("x_min"))
+            out["runup"] = runup(state, **kw)
+            out["smooth_runup"] = smooth_runup(state, temperature=temperature, **kw)
+        if state.blocks is not None:
+            out["block_x"] = state.blocks.x
+        return out
+
+    return observe

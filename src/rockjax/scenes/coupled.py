@@ -282,7 +282,8 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
     meta = dict(slope_angle_deg=slope_angle_deg, water_depth=water_depth, flat_length=flat_length,
                 far_slope_deg=far_slope_deg, flume_width=flume_width, still_level=0.0, x_toe=x_toe,
                 x_beach=x_beach, block_height=H,
-                runup_slope=dict(point=[x_beach, 0.5 * flume_width, -water_depth], normal=n_beach.tolist()),
+                runup_slope=dict(point=[x_beach, 0.5 * flume_width, -water_depth], normal=n_beach.tolist(),
+                                 x_min=x_beach),
                 gauges=dict(names=["near", "middle", "far"],
                             xy=[[x_toe + 0.2 * flat_length, 0.5 * flume_width],
                                 [x_toe + 0.5 * flat_length, 0.5 * flume_width],
@@ -372,13 +373,14 @@ def block_drop(*, dx: float = 0.02, box_size=(0.1, 0.1, 0.1), box_density: float
 def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float = 1.0, water_depth: float = 0.3,
                      flat_length: float = 2.0, beach_slope: float = 0.04, beach_length: float | None = None,
                      flume_width: float = 0.1, periodic_y: bool = True, coupling: Coupling = Coupling.PENALTY,
-                     h_factor: float = 1.3, c0: float | None = None) -> Scene:
+                     gauge_x=None, h_factor: float = 1.3, c0: float | None = None) -> Scene:
     """The seed's first example: a piston wave maker, a flat section and a sloping beach.
 
     The piston is a PRESCRIBED block, ``x(t) = x0 + S/2 sin(2 pi t / T)`` (stroke S, period T
     in ``Params.blocks``); its face is at x = 0 at rest. The flat runs to x = ``flat_length``,
     then the beach rises at ``beach_slope`` (rise/run; the seed's is 4 %) for ``beach_length``
-    (default: up to 0.5 water depths above the still level). ``periodic_y`` makes the flume a
+    (default: up to 0.5 water depths above the still level). Wave gauges at ``gauge_x`` [m]
+    (default 0.3 and 0.6 of the flat). ``periodic_y`` makes the flume a
     thin periodic slab (a 2D flume experiment). The paper's scale (70 m flat, ~65k particles) is
     ``dx`` ~0.1 with ``flat_length=70``; the default is a small flume for tests.
     """
@@ -396,13 +398,14 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     piston = blocks.geometry.box(piston_t, flume_width, z_top + 0.1)
     pos = np.array([-0.5 * piston_t, 0.5 * flume_width, 0.5 * (z_top + 0.1)])
     n_beach = np.array([-beach_slope, 0.0, 1.0])
-    x_min = -stroke - 2 * dx
+    x_min = -math.ceil((0.5 * stroke + 3 * dx) / dx) * dx
     container = [plane([0, 0, -1], [0, 0, 0]), plane(-n_beach, [flat_length, 0, 0]),
                  plane([1, 0, 0], [x_end, 0, 0]), plane([-1, 0, 0], [x_min, 0, 0])]
     if not periodic_y:
         container += [plane([0, -1, 0], [0, 0, 0]), plane([0, 1, 0], [0, flume_width, 0])]
+    # water starts half a spacing off the piston face (the penalty's interaction distance)
     water_hs = [h for h in container if not np.allclose(h[0], [-1, 0, 0])] + [plane([0, 0, 1], [0, 0, water_depth]),
-                                                                          plane([-1, 0, 0], [dx, 0, 0])]
+                                                                          plane([-1, 0, 0], [0.2 * dx, 0, 0])]
     lo = np.array([x_min, 0.0, 0.0])
     hi = np.array([x_min + math.ceil((x_end - x_min) / dx) * dx, flume_width, math.ceil(z_top / dx) * dx])
     water = fill(lo, hi, dx, water_hs)
@@ -414,13 +417,13 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     periodic = (False, bool(periodic_y), False)
     dom_lo = [x_min - pad, 0.0 if periodic_y else -pad, -pad]
     dom_hi = [hi[0] + pad, flume_width if periodic_y else flume_width + pad, z_top + water_depth]
-    k = 2 * math.pi / period  # placeholder for meta (wavenumber solved in validation)
+    gauge_x = [0.3 * flat_length, 0.6 * flat_length] if gauge_x is None else [float(g) for g in gauge_x]
     meta = dict(stroke=stroke, period=period, water_depth=water_depth, flat_length=flat_length,
-                beach_slope=beach_slope, still_level=water_depth, omega=k,
-                runup_slope=dict(point=[flat_length, 0.5 * flume_width, 0.0], normal=(n_beach / np.linalg.norm(n_beach)).tolist()),
-                gauges=dict(names=["g1", "g2"], xy=[[0.3 * flat_length, 0.5 * flume_width],
-                                                    [0.6 * flat_length, 0.5 * flume_width]],
-                            bottom_z=[0.0, 0.0]))
+                beach_slope=beach_slope, still_level=water_depth,
+                runup_slope=dict(point=[flat_length, 0.5 * flume_width, 0.0],
+                                 normal=(n_beach / np.linalg.norm(n_beach)).tolist(), x_min=flat_length),
+                gauges=dict(names=[f"x={gx:g}" for gx in gauge_x], xy=[[gx, 0.5 * flume_width] for gx in gauge_x],
+                            bottom_z=[0.0] * len(gauge_x)))
     return coupled_scene(name="piston_wavemaker", dx=dx, polyhedra=[piston], positions=[pos],
                          motion=(blocks.Motion.PRESCRIBED,), block_density=2500.0, friction_angle_deg=30.0,
                          fluid_x=water, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi, periodic=periodic,
