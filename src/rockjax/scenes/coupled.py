@@ -224,8 +224,8 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
         raise ValueError(f"sliding_wedge: slope_angle_deg must be in [5, 60] degrees (got {slope_angle_deg})")
     if not 5.0 <= far_slope_deg <= 60.0:
         raise ValueError(f"sliding_wedge: far_slope_deg must be in [5, 60] degrees (got {far_slope_deg})")
-    if block_width > flume_width - 4 * dx:
-        raise ValueError(f"sliding_wedge: block_width ({block_width} m) must leave >= 2 dx on each side in the flume "
+    if block_width > flume_width - 2 * dx:
+        raise ValueError(f"sliding_wedge: block_width ({block_width} m) must leave >= 1 dx on each side in the flume "
                          f"(flume_width {flume_width} m); make the flume wider or the block narrower")
     if water_depth < 4 * dx:
         raise ValueError(f"sliding_wedge: water_depth must hold >= 4 particles; use dx <= {water_depth / 4:.4g} m")

@@ -1,0 +1,79 @@
+"""Coupled step cost of the sliding-wedge scene, split into SPH, blocks and coupling shares.
+
+For each resolution the same scene is timed three ways, with the same state: the full coupled
+step; the fluid alone (blocks and coupling removed from the Config, so they are not traced);
+the blocks alone (no particles). coupling = full - fluid - blocks. Each timing is the best of
+``--reps`` runs of one jitted chunk of ``rebuild_every`` steps (list rebuild included).
+JSON lines out; compare the shares within one run (the machine is shared and noisy).
+
+    python experiments/bench_coupled.py --dx 0.04 0.03 0.02 --coupling penalty
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+import jax
+import jax.numpy as jnp
+
+
+def _timed(fn, state, params, reps):
+    out = fn(state, params)
+    jax.block_until_ready(out)
+    best = float("inf")
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        jax.block_until_ready(fn(state, params))
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def bench(dx: float, coupling: str, reps: int) -> dict:
+    import rockjax as rj
+    from rockjax.rollout import make_rollout
+    from rockjax.types import Config, Coupling, State
+
+    scene = rj.scenes.sliding_wedge(dx=dx, coupling=Coupling(coupling))
+    c, p = scene.config, scene.params
+    state = rj.prime(scene.state, p, c)
+    k = c.rebuild_every
+
+    def chunk(config):
+        run = make_rollout(config, 1, checkpoint=False)
+        return jax.jit(lambda s, q: run(s, q)[0])
+
+    t0 = time.perf_counter()
+    full = chunk(c)
+    t_full = _timed(full, state, p, reps)
+    compile_s = time.perf_counter() - t0
+    c_fluid = c.replace(blocks=None, coupling=Coupling.NONE)
+    s_fluid = state.replace(blocks=None, coupling=None)
+    t_fluid = _timed(chunk(c_fluid), s_fluid, p.replace(blocks=None, coupling=None), reps)
+    c_blocks = Config(n_fluid=0, n_wall=0, dt=c.dt, grid=None, cutoff=0.0, skin=0.0, rebuild_every=k, blocks=c.blocks)
+    s_blocks = State(step=state.step, particles=None, nbrs=None, status=state.status, blocks=state.blocks)
+    t_blocks = _timed(chunk(c_blocks), s_blocks, p.replace(fluid=None, coupling=None), reps)
+    per = lambda t: 1e3 * t / k  # ms per step
+    t_coup = max(t_full - t_fluid - t_blocks, 0.0)
+    return {"bench": "coupled_step", "dx": dx, "coupling": coupling, "n_fluid": c.n_fluid, "n_wall": c.n_wall,
+            "n_blocks": c.blocks.n_blocks, "ms_per_step_full": per(t_full), "ms_per_step_fluid": per(t_fluid),
+            "ms_per_step_blocks": per(t_blocks), "ms_per_step_coupling": per(t_coup),
+            "share_blocks_plus_coupling": (t_blocks + t_coup) / t_full,
+            "fluid_particle_steps_per_s": c.n_fluid * k / t_full, "compile_plus_first_s": compile_s,
+            "backend": jax.default_backend(), "load": os.getloadavg()[0]}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--dx", type=float, nargs="+", default=[0.04, 0.03, 0.02])
+    ap.add_argument("--coupling", default="penalty", choices=["penalty", "boundary_particles"])
+    ap.add_argument("--reps", type=int, default=5)
+    a = ap.parse_args()
+    for dx in a.dx:
+        print(json.dumps(bench(dx, a.coupling, a.reps)), flush=True)
+
+
+if __name__ == "__main__":
+    main()
