@@ -63,3 +63,26 @@ def test_energy_does_not_grow(tank):
     scale = float(fluid_mass(scene.state, prm)) * 9.81 * DEPTH  # m g H, J
     print("energy change / (m g H):", float(e1 - e0) / scale)
     assert float(e1 - e0) <= 1e-3 * scale
+
+
+@pytest.mark.slow
+def test_pressure_within_one_percent_at_benchmark_resolution():
+    """Benchmark resolution: 20 particle layers (dx = depth / 20), h = 1.5 dx, an infinite layer
+    (periodic x, y; 8 dx period) so that only the floor and the free surface bound the water.
+
+    Measured 2026-11-23 (~2 min): p / (rho0 g d) = 1.0026, 1.0037, 1.0052, 1.0066, 1.0081 at
+    d = 0.05 ... 0.17 m. At h = 1.3 dx the same run gives 1.034-1.037: the 1.3 dx lattice bias
+    (gradient moment -0.979, see H_FACTOR) does not shrink with dx, so only h = 1.5 dx meets 1 %.
+    """
+    dx = DEPTH / 20
+    L = 8 * dx
+    scene = rj.scenes.hydrostatic_tank(dx=dx, length=L, width=L, depth=DEPTH, h_factor=1.5, periodic_xy=True)
+    result = rj.simulate(scene, t_end=0.4, frame_dt=0.05, progress=False)
+    depths = np.array([0.05, 0.08, 0.11, 0.14, 0.17])
+    pts = jnp.asarray([[L / 2, L / 2, DEPTH - d] for d in depths], jnp.float32)
+    p = np.asarray(probe_pressure(result.state, scene.params, result.scene.config, pts))
+    ratio = p / (1000.0 * 9.81 * depths)
+    print("benchmark hydrostatic p/exact:", np.round(ratio, 4))
+    assert np.all(np.abs(ratio - 1) <= 0.01), ratio
+    x = result.frames["x"][-1][result.frames["kind"][0] == rj.Kind.FLUID]
+    assert np.all(x[:, 2] > 0)
