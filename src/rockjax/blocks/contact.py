@@ -17,10 +17,12 @@ side face, as at the corners of a face-on-face contact, count).
 
 Contact law per point (forces on j; i gets the opposite, torques about each centroid):
 
-* normal: ``f_n = k_n delta + c_n max(closing speed, 0)`` with ``c_n = 2 zeta sqrt(k_n m_red)``:
-  the dashpot acts only while the gap closes, so ``f_n >= 0`` (never pulls);
+* normal: ``f_n = k_n delta + c_n max(closing speed, 0)`` with ``c_n = 2 zeta sqrt(k_n m_red / n)``,
+  n the number of active points of the pair (so n points in parallel give the pair's normal
+  mode the damping ratio zeta); the dashpot acts only while the gap closes, so ``f_n >= 0``
+  (never pulls);
 * tangential: a spring on the accumulated tangential displacement u (history, projected on the
-  current plane each step), ``f_t = -k_s u - c_t v_t`` with ``c_t = 2 zeta sqrt(k_s m_red)``; if
+  current plane each step), ``f_t = -k_s u - c_t v_t`` with ``c_t = 2 zeta sqrt(k_s m_red / n)``; if
   ``|f_t| > f_n tan(phi) + cohesion`` the point slips: ``f_t`` is scaled onto the cap and u
   set to ``-f_t / k_s`` (no dashpot while slipping).  Norms are gradient-safe.
 """
@@ -171,14 +173,9 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     else:
         hist = _remap(old, pairs, mask, B)
     i, j = pairs[:, 0], pairs[:, 1]
-    star = (sh.star_face, sh.star_vertex, sh.star_mask)
-
-    def g(a, k):
-        return a[k]
-
     fcp = jax.vmap(lambda *a: fcp_pair(*a, iterations=config.fcp_iterations))(
-        g(Xw, i), g(sh.vertex_mask, i), g(Nw, i), g(sh.face_mask, i), tuple(g(s, i) for s in star),
-        g(Xw, j), g(sh.vertex_mask, j), g(Nw, j), g(sh.face_mask, j), tuple(g(s, j) for s in star),
+        Xw[i], sh.vertex_mask[i], Nw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i],
+        Xw[j], sh.vertex_mask[j], Nw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j],
         state.x[i], state.x[j], hist.plane, hist.plane_valid,
     )
     n = fcp["normal"]
@@ -199,8 +196,11 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     m_red = 1.0 / jnp.maximum(inv_m[i] + inv_m[j], 1e-30)  # [P]
     kn, ks = params.normal_stiffness, params.shear_stiffness
     zeta = params.damping_ratio
-    cn = 2.0 * zeta * jnp.sqrt(kn * m_red)[:, None]
-    ct = 2.0 * zeta * jnp.sqrt(ks * m_red)[:, None]
+    # per-point dashpots share the pair's critical damping: n points of stiffness k and
+    # c = 2 zeta sqrt(k m_red / n) give the pair's translational mode the ratio zeta
+    n_act = jnp.maximum(jnp.sum(active.astype(f), 1), 1.0)
+    cn = 2.0 * zeta * jnp.sqrt(kn * m_red / n_act)[:, None]
+    ct = 2.0 * zeta * jnp.sqrt(ks * m_red / n_act)[:, None]
     ri = pts - state.x[i][:, None, :]
     rj = pts - state.x[j][:, None, :]
     vi = state.v[i][:, None, :] + jnp.cross(state.omega[i][:, None, :], ri)

@@ -145,8 +145,9 @@ class BlockParams:
       tensile_strength: [] N per contact point; must be 0 (bonded joints are not implemented).
       normal_stiffness: [] N/m, penalty spring per contact point.
       shear_stiffness: [] N/m, tangential spring per contact point.
-      damping_ratio: [] ratio of critical damping per contact point, ``c = 2 zeta sqrt(k m_red)``
-        with the pair's reduced mass (a FIXED block counts as infinitely heavy). The normal
+      damping_ratio: [] ratio of critical damping of a contact pair: each of its n active points
+        gets ``c = 2 zeta sqrt(k m_red / n)`` with the pair's reduced mass m_red (a FIXED block
+        counts as infinitely heavy), so a flat face contact has ratio zeta. The normal
         dashpot acts only while the contact closes (never pulls); the tangential one
         (``sqrt(k_s m_red)``) only while the point sticks.
       stroke: [] m, piston stroke S (PRESCRIBED blocks).
