@@ -43,7 +43,7 @@ import numpy as np
 from ..types import Config, GridSpec, Kind, NeighbourList, Particles, Status
 
 __all__ = ["cell_coords", "search_grid", "range_capacity", "sort_by_cell", "build", "rebuild", "pair_geometry", "safe_norm", "wrap_positions",
-           "min_image", "transpose_sum", "Pairs", "pairs"]
+           "min_image", "transpose_sum", "take", "Pairs", "pairs"]
 
 
 def cell_coords(x, grid: GridSpec):
@@ -108,6 +108,11 @@ def safe_norm(r2):
     """sqrt(r2) with a zero (not NaN) gradient at r2 = 0."""
     nz = r2 > 0
     return jnp.where(nz, jnp.sqrt(jnp.where(nz, r2, 1.0)), 0.0)
+
+
+def take(a, i):
+    """``a[i]`` for indices known to be in bounds and non-negative (no index normalisation or clamping)."""
+    return a.at[i].get(mode="promise_in_bounds", wrap_negative_indices=False)
 
 
 def pair_geometry(x_rows, x_all, idx, grid: GridSpec):
@@ -215,11 +220,29 @@ def _prefix_sum(a, block: int = 16):
     return (inner + offs[:, :, None]).reshape(n, mp)[:, :m]
 
 
-def _select(hit, slot, capacity: int):
-    """Compact each row's hits: ``(out [R, capacity] slots or -1, count [R])``.
+def _cumsum_1d(a, block: int = 256):
+    """Inclusive prefix sum of a float32 vector [M] (``_prefix_sum`` on blocks, then on block totals)."""
+    n = a.shape[0]
+    m = -(-n // block) * block
+    inner = _prefix_sum(jnp.pad(a, (0, m - n)).reshape(m // block, block))
+    tot = inner[:, -1]
+    offs = _prefix_sum(tot[None, :])[0] - tot
+    return (inner + offs[:, None]).reshape(-1)[:n]
+
+
+def _cell_starts(ids, n_cells: int):
+    """``starts [n_cells + 1]``: number of particles with a smaller cell id (counts + prefix sum;
+    a binary search per cell was 10x slower and scales with the grid, not the particles)."""
+    counts = jnp.zeros((n_cells + 1,), jnp.float32).at[ids].add(1.0)
+    incl = _cumsum_1d(counts).astype(jnp.int32)
+    return jnp.concatenate([jnp.zeros((1,), jnp.int32), incl[:n_cells]])
+
+
+def _select(hit, capacity: int):
+    """Compact each row's hits: ``(t [R, capacity] column of the k-th hit, count [R])``.
 
     Args:
-        hit: [R, T] bool, T a multiple of 32; slot: [R, T] int32 values to keep.
+        hit: [R, T] bool, T a multiple of 32. Columns past a row's count are arbitrary (masked later).
     """
     n, t = hit.shape
     w_count = t // 32
@@ -241,8 +264,7 @@ def _select(hit, slot, capacity: int):
         go = rank >= low
         rank = jnp.where(go, rank - low, rank)
         pos = jnp.where(go, pos + s, pos)
-    out = jnp.take_along_axis(slot, wk * 32 + pos, axis=1)
-    return jnp.where(k < count[:, None], out, -1), count
+    return wk * 32 + pos, count
 
 
 def build(x, kind, config: Config):
@@ -267,24 +289,26 @@ def build(x, kind, config: Config):
             jnp.arange(n, dtype=jnp.int32), unique_indices=True)
     else:
         perm = jnp.arange(n, dtype=jnp.int32)
-    cells = jnp.arange(sg.n_cells + 1, dtype=ids.dtype)
-    starts = jnp.searchsorted(ids[perm], cells, side="left").astype(jnp.int32)
+    starts = _cell_starts(ids, sg.n_cells)
     start, end = _ranges(c[:nf], starts, sg)
     L, ratio = range_capacity(config)
     R = start.shape[1]
     T = -(-R * L // 32) * 32
     ar = jnp.arange(L, dtype=jnp.int32)
-    slot = (start[:, :, None] + ar).reshape(nf, R * L)
-    ok = (ar[None, None, :] < (end - start)[:, :, None]).reshape(nf, R * L)
-    xm = [jnp.concatenate([x[:, a][perm], jnp.zeros((L,), x.dtype)]) for a in range(3)]
-    d = [min_image(x[:nf, a, None] - xm[a][slot], a, config.grid) for a in range(3)]
-    hit = ok & (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < config.list_radius**2) & (slot != pos_f[:, None])
-    if T > R * L:
-        hit = jnp.pad(hit, ((0, 0), (0, T - R * L)))
-        slot = jnp.pad(slot, ((0, 0), (0, T - R * L)))
-    out, count = _select(hit, slot, K)
+    slot = start[:, :, None] + ar  # [nf, R, L] positions in the merged order
+    ok = ar[None, None, :] < (end - start)[:, :, None]
+    # materialise the merged-order coordinates: fused into the per-slot gather they would be
+    # recomputed (a gather of a gather) for every slot
+    xm = jax.lax.optimization_barrier([jnp.concatenate([x[:, a][perm], jnp.zeros((L,), x.dtype)]) for a in range(3)])
+    d = [min_image(x[:nf, a, None, None] - take(xm[a], slot), a, config.grid) for a in range(3)]
+    hit = ok & (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < config.list_radius**2) & (slot != pos_f[:, None, None])
+    hit = jnp.pad(hit.reshape(nf, R * L), ((0, 0), (0, T - R * L)))
+    t, count = _select(hit, K)
+    r = jnp.minimum(t // L, R - 1)
+    merged_pos = jnp.take_along_axis(start, r, axis=1) + t % L
+    k = jnp.arange(K, dtype=jnp.int32)[None, :]
     pm = jnp.concatenate([perm, jnp.zeros((L,), jnp.int32)])
-    idx = jnp.where(out >= 0, pm[jnp.maximum(out, 0)], ar_f[:, None])
+    idx = jnp.where(k < count[:, None], take(pm, merged_pos), ar_f[:, None])
     max_count = jnp.max(count) if nf else jnp.zeros((), jnp.int32)
     run = jnp.max(end - start) if nf else jnp.zeros((), jnp.int32)
     active = kind != Kind.PAD
@@ -304,5 +328,12 @@ def rebuild(particles: Particles, config: Config):
 
 
 def transpose_sum(values, idx, n: int):
-    """Sum pair values [R, K] onto their column particles: result [n], ``out[j] = sum_{(i,k): idx[i,k]=j} values[i,k]``."""
-    return jax.ops.segment_sum(values.reshape(-1), idx.reshape(-1), num_segments=n)
+    """Sum pair values onto their column particles.
+
+    Args:
+        values: [R, K] or [R, K, C]; idx: [R, K] column indices; n: number of particles.
+    Returns:
+        [n] (or [n, C]): ``out[j] = sum_{(i,k): idx[i,k]=j} values[i,k]``.
+    """
+    flat = values.reshape((-1,) + values.shape[2:])
+    return jax.ops.segment_sum(flat, idx.reshape(-1), num_segments=n)

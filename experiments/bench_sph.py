@@ -1,0 +1,166 @@
+"""SPH throughput on the 3D dam break (``rockjax.scenes.dam_break``): JSON lines, one per case.
+
+Each case (fluid particle count x scheme) runs in its own subprocess so that peak memory
+(``ru_maxrss``) and compile caches are per case. Per case it measures:
+
+* ``compile_s``: lowering + compiling the chunk (``make_rollout``, no checkpointing) and the
+  separate build / step functions;
+* ``ms_build``: one neighbour-list rebuild (sort by cell + list), ``ms_step``: one step with a
+  given list; ``ms_per_step``: a whole chunk of ``blocks * rebuild_every`` steps divided by its
+  steps (rebuilds included) -- the number that counts;
+* ``fluid_particle_steps_per_s`` (fluid particles x steps / s, the peers' metric) and
+  ``total_particle_steps_per_s`` (fluid + wall particles);
+* ``cpu_ms_per_step``: process CPU time per step (median chunk), steadier than wall time when
+  other processes compete for the cores;
+* ``peak_rss_mb``; ``cpu_util`` (process CPU seconds / wall seconds over the timed chunks, <= 2 on
+  this machine) and the load average before and after: other agents share the 2 cores, so compare
+  ratios within one run, and distrust a case whose ``cpu_util`` is far below ~1.8.
+
+The chunk starts from the primed initial state (water at rest, breaking) and its final status
+must be clean (no overflow, no stale list); a growable status bit is cured the way the driver
+cures it (``driver._grow``) and the case is rerun, the final capacities are reported.
+
+Usage: ``python experiments/bench_sph.py [--sizes 5k 20k 80k] [--schemes wcsph seed]
+[--blocks 4] [--reps 3] [--skin-factor 0.6] [--rebuild-every 8]``.
+Sizes follow the peers (``shared/peers/common.py``): a = 0.5 m column of 2 nx^3 particles,
+nx = 14, 22, 34 (5488, 21296, 78608 fluid particles); ``160k`` is nx = 43.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+
+SIZES = {"5k": 14, "20k": 22, "80k": 34, "160k": 43}
+
+
+def _cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: float | None,
+             rebuild_every: int | None) -> dict:
+    import jax
+    import numpy as np
+
+    import rockjax as rj
+    from rockjax.driver import _grow, resize
+    from rockjax.rollout import make_rollout
+    from rockjax.step import advance, prime, refresh
+
+    nx = SIZES[size]
+    kw = {}
+    if skin_factor is not None:
+        kw["skin_factor"] = skin_factor
+    if rebuild_every is not None:
+        kw["rebuild_every"] = rebuild_every
+    t0 = time.perf_counter()
+    scene = rj.scenes.dam_break(dx=0.5 / nx, scheme=rj.Scheme(scheme), **kw)
+    setup_s = time.perf_counter() - t0
+    config, params, state0 = scene.config, scene.params, scene.state
+    counts = scene.counts()
+    regrows = 0
+    while True:
+        k = config.rebuild_every
+        t0 = time.perf_counter()
+        prime_c = jax.jit(lambda s, p: prime(s, p, config)).lower(state0, params).compile()
+        state = prime_c(state0, params)
+        chunk = jax.jit(lambda s, p: make_rollout(config, blocks, checkpoint=False)(s, p)[0])
+        chunk_c = chunk.lower(state, params).compile()
+        compile_s = time.perf_counter() - t0
+        out = jax.block_until_ready(chunk_c(state, params))
+        bits = int(out.status) | int(state.status)
+        if bits & ~int(rj.Status.growable()):
+            raise RuntimeError(f"{size}/{scheme}: fatal status {rj.Status.describe(bits)}")
+        if not bits:
+            break
+        regrows += 1
+        if regrows > 6:
+            raise RuntimeError(f"{size}/{scheme}: gave up regrowing ({rj.Status.describe(bits)})")
+        config = _grow(config, out if int(out.status) else state, bits)
+        state0 = resize(state0, config)
+
+    steps = blocks * config.rebuild_every
+    load_before = os.getloadavg()[0]
+    walls, cpus = [], []
+    for _ in range(reps):
+        c0, w0 = _cpu(), time.perf_counter()
+        jax.block_until_ready(chunk_c(state, params))
+        walls.append(time.perf_counter() - w0)
+        cpus.append(_cpu() - c0)
+    load_after = os.getloadavg()[0]
+    wall = min(walls)
+
+    t0 = time.perf_counter()
+    refresh_c = jax.jit(lambda s: refresh(s, config)).lower(state).compile()
+    advance_c = jax.jit(lambda s, p: advance(s, p, config)).lower(state, params).compile()
+    compile_parts_s = time.perf_counter() - t0
+
+    def best(f, *args, n=reps):
+        jax.block_until_ready(f(*args))
+        ts = []
+        for _ in range(n):
+            w0 = time.perf_counter()
+            jax.block_until_ready(f(*args))
+            ts.append(time.perf_counter() - w0)
+        return min(ts)
+
+    ms_build = 1e3 * best(refresh_c, state)
+    ms_step = 1e3 * best(advance_c, state, params)
+    nf, nw = counts["fluid"], counts["wall"]
+    return {
+        "bench": "sph_dam_break_3d", "size": size, "scheme": scheme, "n_fluid": nf, "n_wall": nw,
+        "dx": 0.5 / nx, "dtype": str(np.asarray(state.particles.x).dtype),
+        "K": config.neighbour_capacity, "cell_capacity": config.cell_capacity,
+        "skin_dx": round(config.skin / (0.5 / nx), 3), "rebuild_every": config.rebuild_every, "regrows": regrows,
+        "steps_timed": steps, "reps": reps,
+        "ms_per_step": round(1e3 * wall / steps, 2), "cpu_ms_per_step": round(1e3 * sorted(cpus)[len(cpus) // 2] / steps, 2), "ms_build": round(ms_build, 2), "ms_step": round(ms_step, 2),
+        "ms_per_step_model": round(ms_step + ms_build / config.rebuild_every, 2),
+        "fluid_particle_steps_per_s": round(nf * steps / wall),
+        "total_particle_steps_per_s": round((nf + nw) * steps / wall),
+        "compile_s": round(compile_s, 2), "compile_parts_s": round(compile_parts_s, 2), "setup_s": round(setup_s, 2),
+        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+        "cpu_util": round(sum(cpus) / sum(walls), 2), "load_before": round(load_before, 2),
+        "load_after": round(load_after, 2), "jax": jax.__version__,
+    }
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", nargs="+", default=["5k", "20k", "80k"], choices=list(SIZES))
+    ap.add_argument("--schemes", nargs="+", default=["wcsph", "seed"])
+    ap.add_argument("--blocks", type=int, default=4, help="neighbour-list blocks per timed chunk")
+    ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--skin-factor", type=float, default=None, help="Verlet skin / dx (scene default if omitted)")
+    ap.add_argument("--rebuild-every", type=int, default=None, help="steps per list (scene default if omitted)")
+    ap.add_argument("--case", nargs=2, metavar=("SIZE", "SCHEME"), help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    opts = dict(blocks=args.blocks, reps=args.reps, skin_factor=args.skin_factor, rebuild_every=args.rebuild_every)
+    if args.case:
+        print(json.dumps(run_case(args.case[0], args.case[1], **opts)), flush=True)
+        return
+    for size in args.sizes:
+        for scheme in args.schemes:
+            cmd = [sys.executable, os.path.abspath(__file__), "--case", size, scheme, "--blocks", str(args.blocks),
+                   "--reps", str(args.reps)]
+            if args.skin_factor is not None:
+                cmd += ["--skin-factor", str(args.skin_factor)]
+            if args.rebuild_every is not None:
+                cmd += ["--rebuild-every", str(args.rebuild_every)]
+            proc = subprocess.run(cmd, capture_output=True, text=True)
+            lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
+            if proc.returncode or not lines:
+                print(json.dumps({"bench": "sph_dam_break_3d", "size": size, "scheme": scheme,
+                                  "error": (proc.stderr or proc.stdout).strip().splitlines()[-1:]}), flush=True)
+            else:
+                print(lines[-1], flush=True)
+
+
+if __name__ == "__main__":
+    main()

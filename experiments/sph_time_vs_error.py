@@ -1,0 +1,134 @@
+"""Accuracy against wall time: the 2D Martin & Moyce (1952) dam break (n^2 = 2 column, run as a
+periodic slab of the 3D code, ``rockjax.validation.dam_break_2d``) at several resolutions.
+
+For each (scheme, a/dx) it runs ``rockjax.simulate`` to T = t sqrt(2 g / a) = 3.05 and prints one
+JSON line: surge-front RMS relative error of Z(T) at the 13 reference times 0 < T <= 3
+(``validation.front_error``; reference data/validation/martin_moyce_1952_surge_front_n2_2.csv,
+Table 2), unshifted and after the best time shift in [0, 0.4] (gate release), the wall time of
+the run (compiles included, as a user sees it; a persistent compile cache makes reruns cheaper),
+steps, CPU utilisation and the load average (other agents share the 2 cores: compare within one
+run). With ``--out`` the records go to a JSONL file and a PNG plots error
+against wall time, with the peer codes' figures from ``shared/peers/results`` (same metric, same
+machine class) when that folder is there.
+
+Usage: ``python experiments/sph_time_vs_error.py [--res 8 10 14 20] [--schemes wcsph]
+[--out experiments/results/sph_time_vs_error]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import pathlib
+import resource
+import time
+
+import numpy as np
+
+A = 0.1  # column width a [m]
+
+
+def _cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def run(scheme: str, res: int) -> dict:
+    import rockjax as rj
+    from rockjax.validation import dam_break_2d, front_error, front_history, martin_moyce_n2_2
+
+    scene = dam_break_2d(a=A, resolution=res, scheme=rj.Scheme(scheme))
+    t_end = 3.05 / math.sqrt(2 * 9.81 / A)
+    load0 = os.getloadavg()[0]
+    c0, w0 = _cpu(), time.perf_counter()
+    result = rj.simulate(scene, t_end=t_end, frame_dt=t_end / 120, progress=False)
+    wall = time.perf_counter() - w0
+    cpu = _cpu() - c0
+    T, Z = front_history(result, a=A)
+    Tr, Zr = martin_moyce_n2_2()
+    shifts = np.arange(0, 0.41, 0.02)
+    errs = [front_error(T, Z, Tr, Zr, shift=s) for s in shifts]
+    k = int(np.argmin(errs))
+    cfg = result.scene.config
+    return {"case": "dambreak2d_mm_n2_2", "code": "rockjax", "scheme": scheme, "a_over_dx": res, "dx": A / res,
+            "n_fluid": scene.counts()["fluid"], "n_wall": scene.counts()["wall"], "steps": result.stats["steps"],
+            "regrows": result.stats["regrows"], "wall_s": round(wall, 2), "cpu_util": round(cpu / wall, 2),
+            "front_rms_rel_err": round(errs[0], 4), "front_rms_rel_err_best_shift": round(errs[k], 4),
+            "best_shift_T": round(float(shifts[k]), 2), "Z_sim_at_ref": np.round(np.interp(Tr, T, Z), 3).tolist(),
+            "K": cfg.neighbour_capacity, "rebuild_every": cfg.rebuild_every, "skin_dx": round(cfg.skin * res / A, 3),
+            "load_before": round(load0, 2), "load_after": round(os.getloadavg()[0], 2)}
+
+
+def _peers(shared: pathlib.Path) -> list[dict]:
+    out = []
+    for f in sorted((shared / "peers" / "results").glob("*.jsonl")):
+        for line in f.read_text().splitlines():
+            try:
+                d = json.loads(line)
+            except json.JSONDecodeError:
+                continue
+            if d.get("case") == "dambreak2d" and "front_rms_rel_err" in d and "wall_s" in d:
+                out.append(d)
+    return out
+
+
+def plot(records: list[dict], png: pathlib.Path, shared: pathlib.Path | None) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharex=True)
+    keys = [("front_rms_rel_err", "unshifted"), ("front_rms_rel_err_best_shift", "best time shift")]
+    peers = _peers(shared) if shared is not None else []
+    for ax, (key, title) in zip(axes, keys):
+        for scheme in sorted({r["scheme"] for r in records}):
+            rs = sorted((r for r in records if r["scheme"] == scheme), key=lambda r: r["wall_s"])
+            ax.plot([r["wall_s"] for r in rs], [r[key] for r in rs], "o-", label=f"rockjax {scheme}")
+            for r in rs:
+                ax.annotate(f"a/dx={r['a_over_dx']}", (r["wall_s"], r[key]), fontsize=7, xytext=(3, 3),
+                            textcoords="offset points")
+        for code in sorted({(p["code"], p["scheme"]) for p in peers}):
+            ps = sorted((p for p in peers if (p["code"], p["scheme"]) == code), key=lambda p: p["wall_s"])
+            ax.plot([p["wall_s"] for p in ps], [p[key] for p in ps], "x--", alpha=0.6, label=f"{code[0]} {code[1]}")
+        ax.set_xscale("log")
+        ax.set_xlabel("wall time [s] (2 cores)")
+        ax.set_ylabel("surge front RMS relative error")
+        ax.set_title(f"Martin & Moyce n^2=2, T <= 3, {title}")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(png, dpi=120)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--res", type=int, nargs="+", default=[8, 10, 14, 20], help="a / dx values")
+    ap.add_argument("--schemes", nargs="+", default=["wcsph"])
+    ap.add_argument("--out", default=None, help="path stem for .jsonl and .png (e.g. experiments/results/sph_time_vs_error)")
+    ap.add_argument("--plot-only", action="store_true", help="re-plot the records in OUT.jsonl")
+    args = ap.parse_args(argv)
+    shared = pathlib.Path(__file__).resolve().parents[2] / "shared"
+    shared = shared if shared.exists() else None
+    records = []
+    if args.out and args.plot_only:
+        records = [json.loads(ln) for ln in pathlib.Path(args.out + ".jsonl").read_text().splitlines() if ln]
+    else:
+        for res in args.res:
+            for scheme in args.schemes:
+                rec = run(scheme, res)
+                print(json.dumps(rec), flush=True)
+                records.append(rec)
+                if args.out:
+                    p = pathlib.Path(args.out + ".jsonl")
+                    p.parent.mkdir(parents=True, exist_ok=True)
+                    with p.open("a") as fh:
+                        fh.write(json.dumps(rec) + "\n")
+    if args.out and records:
+        plot(records, pathlib.Path(args.out + ".png"), shared)
+
+
+if __name__ == "__main__":
+    main()
