@@ -1,36 +1,77 @@
 """Rollouts: ``lax.scan`` over blocks of ``rebuild_every`` steps, checkpointed for gradients.
 
-A block is: rebuild the neighbour list (re-sorting the particles), then ``rebuild_every`` steps
-with that list. ``make_rollout(config, n_blocks)`` scans ``n_blocks`` blocks. With
-``checkpoint=True`` each block and each step inside it is wrapped in ``jax.checkpoint``, so
-reverse mode stores one state per block plus one block's steps (memory ~ sqrt(T) when
-``n_blocks ~ rebuild_every``) instead of every intermediate of every step.
-Trip counts are fixed (no ``while_loop``), so ``jax.grad`` and ``jax.vmap`` go through.
+This module owns the differentiable time loop. A *block* is: rebuild the neighbour list
+(re-sorting the particles; built under ``stop_gradient`` in ``sph.neighbours``), then
+``config.rebuild_every`` steps with that list. ``make_rollout(config, n_blocks)`` advances
+``n_blocks`` blocks, i.e. ``n_blocks * config.rebuild_every`` steps. Trip counts are fixed
+(``lax.scan`` only, no ``while_loop``), so ``jax.grad``, ``jax.jvp`` and ``jax.vmap`` go through.
+
+Memory of reverse mode (``checkpoint=True``). Three nested levels, each under ``jax.checkpoint``:
+
+* outer scan over ``n_blocks // chunk`` *chunks* (it stores one State per chunk),
+* a chunk: scan over ``chunk`` blocks (recomputed in the backward pass; stores one State per block),
+* a block: scan over ``rebuild_every`` steps (recomputed; stores one State per step), each step
+  recomputed once more for its own vector-Jacobian product.
+
+So reverse mode holds about ``n_blocks / chunk + chunk + rebuild_every`` States plus one step's
+intermediates, at the price of about two extra forward passes. The default ``chunk`` is
+``ceil(sqrt(n_blocks))``, which makes the memory grow like ``sqrt(T)`` in the number of steps T
+(``experiments/bench_grad.py`` measures it). ``checkpoint=False`` is a plain scan of blocks
+(the host driver's forward-only path; no memory saving, nothing recomputed).
 """
 
 from __future__ import annotations
 
+import math
 from typing import Callable, Optional
 
 import jax
+import jax.numpy as jnp
 
 from .step import advance, refresh
 from .types import Config, Params, State
 
-__all__ = ["make_rollout", "rollout"]
+__all__ = ["make_rollout", "rollout", "n_blocks_for", "default_chunk"]
+
+
+def n_blocks_for(config: Config, n_steps: int) -> int:
+    """Number of blocks that make ``n_steps`` steps; ``n_steps`` must be a positive multiple of
+    ``config.rebuild_every`` (ValueError otherwise)."""
+    k = config.rebuild_every
+    if int(n_steps) != n_steps or n_steps < 1:
+        raise ValueError(f"n_steps must be a positive integer (got {n_steps})")
+    if n_steps % k:
+        raise ValueError(f"n_steps ({n_steps}) must be a multiple of Config.rebuild_every ({k}); "
+                         f"use {k * max(1, round(n_steps / k))}")
+    return int(n_steps) // k
+
+
+def default_chunk(n_blocks: int) -> int:
+    """Blocks per checkpointed chunk for a rollout of ``n_blocks`` blocks: ``ceil(sqrt(n_blocks))``."""
+    return max(1, math.ceil(math.sqrt(n_blocks)))
 
 
 def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
-                 observe: Optional[Callable[[State, Params], object]] = None):
+                 observe: Optional[Callable[[State, Params], object]] = None, chunk: Optional[int] = None):
     """Build ``run(state, params) -> (state, observations)``.
 
     Args:
         config: static configuration.
         n_blocks: number of blocks; the rollout advances ``n_blocks * config.rebuild_every`` steps.
-        checkpoint: wrap blocks and steps in ``jax.checkpoint`` (for reverse-mode memory).
+        checkpoint: wrap chunks, blocks and steps in ``jax.checkpoint`` (reverse-mode memory
+            ~ sqrt(T), see the module docstring). Use False for forward-only runs.
         observe: optional ``observe(state, params) -> pytree`` evaluated after every block; the
             results are stacked along a leading axis of length ``n_blocks`` (None if not given).
+        chunk: blocks per checkpointed chunk (``checkpoint=True`` only); default
+            ``default_chunk(n_blocks)``. If it does not divide ``n_blocks`` the remainder runs as
+            one shorter chunk at the end.
+
+    Returns:
+        ``run(state, params)`` returning ``(final State, observations or None)``.
     """
+    n_blocks = int(n_blocks)
+    if n_blocks < 1:
+        raise ValueError(f"make_rollout: n_blocks must be >= 1 (got {n_blocks})")
     k = config.rebuild_every
 
     def one_step(state, params):
@@ -47,17 +88,45 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
     if checkpoint:
         block = jax.checkpoint(block, prevent_cse=False)
 
-    def run(state: State, params: Params):
+    def scan_blocks(state, params, length):
         def body(s, _):
             s = block(s, params)
             return s, (observe(s, params) if observe is not None else None)
 
-        return jax.lax.scan(body, state, None, length=n_blocks)
+        return jax.lax.scan(body, state, None, length=length)
+
+    if not checkpoint:
+        def run(state: State, params: Params):
+            return scan_blocks(state, params, n_blocks)
+
+        return run
+
+    c = default_chunk(n_blocks) if chunk is None else int(chunk)
+    if c < 1:
+        raise ValueError(f"make_rollout: chunk must be >= 1 (got {chunk})")
+    c = min(c, n_blocks)
+    n_outer, rem = divmod(n_blocks, c)
+
+    def chunk_fn(length):
+        return jax.checkpoint(lambda s, p: scan_blocks(s, p, length), prevent_cse=False)
+
+    full = chunk_fn(c)
+    tail = chunk_fn(rem) if rem else None
+
+    def run(state: State, params: Params):
+        state, obs = jax.lax.scan(lambda s, _: full(s, params), state, None, length=n_outer)
+        if observe is not None:
+            obs = jax.tree_util.tree_map(lambda a: a.reshape((n_outer * c,) + a.shape[2:]), obs)
+        if tail is not None:
+            state, obs_t = tail(state, params)
+            if observe is not None:
+                obs = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), obs, obs_t)
+        return state, obs
 
     return run
 
 
 def rollout(config: Config, state: State, params: Params, n_blocks: int, *, checkpoint: bool = True,
-            observe=None):
+            observe=None, chunk: Optional[int] = None):
     """Functional form of ``make_rollout(config, n_blocks, ...)(state, params)``."""
-    return make_rollout(config, n_blocks, checkpoint=checkpoint, observe=observe)(state, params)
+    return make_rollout(config, n_blocks, checkpoint=checkpoint, observe=observe, chunk=chunk)(state, params)

@@ -1,0 +1,217 @@
+"""Ensembles: many scenarios of one scene at once, with ``jax.vmap`` and across devices.
+
+This module owns the batching helpers. All members share one static ``Config`` (same array
+shapes); they differ in ``Params`` leaves (density, friction angle, speed of sound, ...) and,
+optionally, in the initial ``State`` (e.g. the initial velocity of a block, or block poses with
+the same shapes).
+
+* ``broadcast(tree, n)`` / ``batch(tree, n, {path: values[n]})``: a batched pytree (leading axis
+  n) from one member, with chosen leaves swept (``"blocks.density[0]"``,
+  ``"blocks.friction_angle"``, ``"blocks.v[0]"``: paths as in ``rockjax.calibrate.get_leaf``);
+  ``stack`` / ``unstack`` / ``member`` convert between lists and batches;
+* ``ensemble(fn, in_axes=...)``: ``jax.jit(jax.vmap(fn))``, or with ``shard=True`` (or a
+  ``mesh``) the same batch split over devices with ``jax.shard_map`` (each device runs
+  ``vmap(fn)`` on its slice, no communication, so the results equal the unsharded run); a batch
+  that does not divide evenly is padded with copies of its last member and trimmed;
+* ``run_ensemble(scene, params_batch, n_steps, observable)``: the final observable of every
+  member (e.g. a run-up distribution over 64 sampled slides);
+* ``jax.vmap(jax.grad(loss))`` is ``ensemble(jax.grad(loss))``.
+
+Several hosts (``jax.distributed``). Start one process per host and call
+``jax.distributed.initialize(coordinator_address="host0:1234", num_processes=P, process_id=i)``
+(on SLURM / TPU pods / Kubernetes with the usual environment the arguments may be omitted)
+before any other JAX call. ``jax.devices()`` then lists the devices of every host, so
+``ensemble(fn, shard=True)`` builds a mesh over all of them. Each process holds only its own
+rows: build the global batch with ``jax.make_array_from_process_local_data(
+NamedSharding(mesh, P("members")), local_rows)`` for every leaf (``shard_batch`` does this when
+``jax.process_count() > 1``), call the sharded function (the global batch must then divide evenly
+over the devices: no padding across hosts), and read results with
+``jax.experimental.multihost_utils.process_allgather`` or per process from
+``out.addressable_shards``. Every process must run the same program in the same order.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Mapping, Optional, Sequence
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import Mesh, NamedSharding, PartitionSpec as P
+
+from .calibrate import _parse, get_leaf, observed
+from .types import Params, State
+
+__all__ = ["AXIS", "stack", "unstack", "member", "broadcast", "batch", "make_mesh", "shard_batch", "ensemble",
+           "run_ensemble"]
+
+AXIS = "members"  #: the mesh axis name the ensemble is split over
+
+
+def stack(trees: Sequence):
+    """A batched pytree (new leading axis) from a list of pytrees with identical structure and shapes."""
+    if not trees:
+        raise ValueError("stack: need at least one member")
+    return jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *trees)
+
+
+def member(tree, i: int):
+    """Member ``i`` of a batched pytree."""
+    return jax.tree_util.tree_map(lambda a: a[i], tree)
+
+
+def _size(tree) -> int:
+    leaves = jax.tree_util.tree_leaves(tree)
+    if not leaves:
+        raise ValueError("ensemble: a batched argument has no array leaves")
+    n = {int(jnp.shape(a)[0]) for a in leaves}
+    if len(n) != 1:
+        raise ValueError(f"ensemble: batched leaves disagree on the batch size (leading axes {sorted(n)})")
+    return n.pop()
+
+
+def unstack(tree) -> list:
+    """The list of members of a batched pytree."""
+    return [member(tree, i) for i in range(_size(tree))]
+
+
+def broadcast(tree, n: int):
+    """``n`` identical copies of ``tree`` stacked along a new leading axis."""
+    if int(n) < 1:
+        raise ValueError(f"broadcast: n must be >= 1 (got {n})")
+    return jax.tree_util.tree_map(lambda a: jnp.broadcast_to(jnp.asarray(a), (int(n),) + jnp.shape(a)), tree)
+
+
+def batch(tree, n: int, overrides: Optional[Mapping[str, object]] = None):
+    """``n`` copies of ``tree`` (Params or State) with the leaves in ``overrides`` swept.
+
+    Args:
+        tree: one member.
+        n: batch size.
+        overrides: ``{path: values}`` with ``values`` of shape ``[n] + leaf shape`` (the leaf, or
+            its entry ``[i]`` for a path ``"a.b[i]"``), e.g.
+            ``{"blocks.density[0]": rho[n], "blocks.friction_angle": phi[n], "blocks.v[0]": v[n, 3]}``.
+    """
+    out = broadcast(tree, n)
+    for path, values in (overrides or {}).items():
+        names, index = _parse(path)
+        leaf = jnp.asarray(get_leaf(tree, path))
+        values = jnp.asarray(values, leaf.dtype)
+        if values.shape != (int(n),) + leaf.shape:
+            raise ValueError(f"batch: values for {path!r} have shape {values.shape}; expected {(int(n),) + leaf.shape} "
+                             "(one entry per member)")
+
+        def rec(node, depth):
+            nm = names[depth]
+            child = getattr(node, nm)
+            if depth == len(names) - 1:
+                new = values if index is None else child.at[:, index].set(values)
+                return node.replace(**{nm: new})
+            return node.replace(**{nm: rec(child, depth + 1)})
+
+        out = rec(out, 0)
+    return out
+
+
+def make_mesh(devices: Optional[Sequence] = None) -> Mesh:
+    """A one-axis mesh (axis ``AXIS``) over ``devices`` (default: all devices of all processes)."""
+    devs = list(jax.devices() if devices is None else devices)
+    return Mesh(np.asarray(devs), (AXIS,))
+
+
+def shard_batch(tree, mesh: Mesh):
+    """Place a batched pytree on ``mesh``, split along its leading axis.
+
+    With one process: ``jax.device_put`` of the whole batch. With several (``jax.distributed``):
+    each process passes only its own rows, assembled into one global array per leaf with
+    ``jax.make_array_from_process_local_data``.
+    """
+    sh = NamedSharding(mesh, P(AXIS))
+    if jax.process_count() > 1:
+        return jax.tree_util.tree_map(lambda a: jax.make_array_from_process_local_data(sh, np.asarray(a)), tree)
+    return jax.device_put(tree, sh)
+
+
+def ensemble(fn: Callable, *, in_axes=0, shard: bool = False, mesh: Optional[Mesh] = None,
+             devices: Optional[Sequence] = None) -> Callable:
+    """Batch ``fn`` over a leading member axis: ``jax.jit(jax.vmap(fn, in_axes))``, optionally sharded.
+
+    Args:
+        fn: ``fn(*args) -> pytree`` for one member (e.g. ``lambda p, s: runup(final_state(...))``,
+            or ``jax.grad(loss)``).
+        in_axes: per positional argument 0 (batched along the leading axis) or None (shared by
+            every member); an int or None applies to all arguments. Only 0 and None are allowed.
+        shard: split the batch over ``devices`` (default all) with ``jax.shard_map`` on a
+            one-axis mesh; or pass ``mesh`` (axis ``AXIS``) directly. Shared arguments are
+            replicated; outputs are batched along the leading axis and sharded the same way.
+
+    Returns:
+        ``batched(*args)``; with sharding, a batch size that does not divide by the number of
+        devices is padded with copies of the last member (single process only) and trimmed.
+    """
+    vm = jax.vmap(fn, in_axes=in_axes)
+    if not shard and mesh is None:
+        return jax.jit(vm)
+    mesh = make_mesh(devices) if mesh is None else mesh
+    if mesh.axis_names != (AXIS,):
+        raise ValueError(f"ensemble: the mesh must have the single axis {AXIS!r} (got {mesh.axis_names})")
+    n_dev = mesh.devices.size
+    cache: dict = {}
+
+    def axes_for(n_args):
+        ax = in_axes if isinstance(in_axes, (tuple, list)) else (in_axes,) * n_args
+        if len(ax) != n_args or any(a not in (0, None) for a in ax):
+            raise ValueError(f"ensemble: in_axes must be 0 or None per argument (got {in_axes!r} for {n_args} args)")
+        return tuple(ax)
+
+    def batched(*args):
+        ax = axes_for(len(args))
+        sizes = {_size(a) for a, x in zip(args, ax) if x == 0}
+        if len(sizes) != 1:
+            raise ValueError(f"ensemble: batched arguments disagree on the batch size ({sorted(sizes)})")
+        n = sizes.pop()
+        pad = (-n) % n_dev
+        if pad:
+            if jax.process_count() > 1:
+                raise ValueError(f"ensemble: with several processes the batch ({n}) must divide by the number of "
+                                 f"devices ({n_dev}); pad it on every host")
+            args = tuple(
+                jax.tree_util.tree_map(lambda a: jnp.concatenate([a, jnp.repeat(a[-1:], pad, axis=0)]), a)
+                if x == 0 else a for a, x in zip(args, ax))
+        if ax not in cache:
+            specs = tuple(P(AXIS) if x == 0 else P() for x in ax)
+            sm = jax.shard_map(vm, mesh=mesh, in_specs=specs, out_specs=P(AXIS), check_vma=False)
+            cache[ax] = jax.jit(sm)
+        out = cache[ax](*args)
+        if pad:
+            out = jax.tree_util.tree_map(lambda a: a[:n], out)
+        return out
+
+    return batched
+
+
+def run_ensemble(scene, params_batch: Params, n_steps: int, observable: Callable[[State, Params], object], *,
+                 states: Optional[State] = None, shard: bool = False, mesh: Optional[Mesh] = None,
+                 checkpoint: bool = False):
+    """``observable(final_state, params)`` for every member of an ensemble of ``scene``.
+
+    Args:
+        scene: the ``Scene`` (its ``config``; its ``state`` unless ``states`` is given).
+        params_batch: batched ``Params`` (``batch``), leading axis n.
+        n_steps: steps per member (a multiple of ``config.rebuild_every``).
+        observable: ``observable(state, params) -> pytree`` on the final state of one member.
+        states: optional batched initial ``State`` (same shapes as ``scene.state``, leading axis n).
+        shard, mesh: split the members over devices (see ``ensemble``).
+        checkpoint: use the checkpointed rollout (only useful under a gradient).
+
+    Returns:
+        the observable with a leading axis n.
+    """
+    def one(params, state):
+        s = observed(scene, params, n_steps, None, state=state, checkpoint=checkpoint)[0]
+        return observable(s, params)
+
+    if states is None:
+        fn = ensemble(lambda p: one(p, scene.state), in_axes=0, shard=shard, mesh=mesh)
+        return fn(params_batch)
+    return ensemble(one, in_axes=(0, 0), shard=shard, mesh=mesh)(params_batch, states)
