@@ -101,7 +101,7 @@ def fcp_fn(iterations: int):
                        iterations=iterations)
         pts, depth, active = pair_contacts(Xi, bi["vm"], Ni, Di, bi["fm"], bi["e"], bi["em"], bi["r"],
                                            Xj, bj["vm"], Nj, Dj, bj["fm"], bj["e"], bj["em"], bj["r"],
-                                           out["normal"], out["support_i"], out["support_j"],
+                                           out["normal"],
                                            tol_rel=1e-4, edge_contacts=True)
         out.update(points=pts, depth=depth, active=active)
         return out

@@ -6,8 +6,9 @@ forces and torques on each block) and :class:`ContactHistory`.
 Contact points of a pair (i, j) with common-plane normal n (from i to j) -- padded, masked, never
 pruned; each kind has its own fixed slot so the shear history follows the feature:
 
-* vertices of j inside block i (slot = vertex of j): depth ``max_i n.x - n.x_v``;
-* vertices of i inside block j (slot = vertex of i): depth ``n.x_v - min_j n.x``;
+* vertices of j inside block i (slot = vertex of j): depth = distance from the vertex along +n
+  to the boundary of i (local: a tilted face gives each corner its own depth);
+* vertices of i inside block j (slot = vertex of i): depth = distance along -n out of j;
 * edge-edge crossings (slot = edge of i x edge of j): the two edges, projected on the common
   plane, cross strictly inside both; the crossing point of i's edge lies inside j and that of
   j's edge inside i; depth = n.(p_i - p_j) > 0.
@@ -65,6 +66,15 @@ def _inside(pts, N, D, fm, tol):
     return jnp.all(jnp.where(fm, s <= tol, True), -1)
 
 
+def _exit_distance(X, N, D, fm, u):
+    """[V] m: distance along the unit direction u from each point X [V,3] to the boundary of the
+    polyhedron (N [F,3], D [F]), for points inside it (faces with N.u <= 1e-3 are never crossed)."""
+    den = N @ u  # [F]
+    ok = fm & (den > 1e-3)
+    t = (D[None, :] - X @ N.T) / jnp.where(ok, den, 1.0)[None, :]
+    return jnp.min(jnp.where(ok[None, :], t, 1e30), -1)
+
+
 def _tangent_basis(n):
     a = jnp.where(jnp.abs(n[0]) < 0.6, jnp.array([1.0, 0.0, 0.0], n.dtype), jnp.array([0.0, 1.0, 0.0], n.dtype))
     t1 = jnp.cross(n, a)
@@ -73,22 +83,21 @@ def _tangent_basis(n):
     return t1, t2
 
 
-def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj, rj, n, sup_i, sup_j, *,
+def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj, rj, n, *,
                   tol_rel: float, edge_contacts: bool):
-    """Contact points of one pair for the common plane (n, sup_i, sup_j).
+    """Contact points of one pair for the common-plane normal n.
 
     Args:
       X*: [V,3] world vertices; m*: [V]; N*: [F,3] world normals; D*: [F] offsets; fm*: [F];
-      e*: [nE,2] edges; em*: [nE]; r*: [] bounding radii (m).  n: [3] unit i -> j;
-      sup_i = max_i n.x, sup_j = min_j n.x (m).
+      e*: [nE,2] edges; em*: [nE]; r*: [] bounding radii (m).  n: [3] unit normal i -> j.
     Returns:
       ``(points [S,3] m, depth [S] m, active [S] bool)`` with S = 2 V (+ nE^2 with edge contacts).
     """
     tol_i, tol_j = tol_rel * ri, tol_rel * rj
-    # vertices of j inside i, vertices of i inside j
-    dj = sup_i - Xj @ n
+    # vertices of j inside i (depth: distance to leave i along +n), vertices of i inside j (along -n)
+    dj = _exit_distance(Xj, Ni, Di, fmi, n)
     aj = mj & _inside(Xj, Ni, Di, fmi, tol_i) & (dj > 0)
-    di = Xi @ n - sup_j
+    di = _exit_distance(Xi, Nj, Dj, fmj, -n)
     ai = mi & _inside(Xi, Nj, Dj, fmj, tol_j) & (di > 0)
     pts = [Xj, Xi]
     dep = [dj, di]
@@ -184,7 +193,7 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     )(
         Xw[i], sh.vertex_mask[i], Nw[i], Dw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i], sh.radius[i],
         Xw[j], sh.vertex_mask[j], Nw[j], Dw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j], sh.radius[j],
-        n, fcp["support_i"], fcp["support_j"],
+        n,
     )
     active = active & mask[:, None]
     depth = jnp.where(active, depth, 0.0)
