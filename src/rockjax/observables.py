@@ -58,7 +58,8 @@ def energies(state: State, params: Params, config: Config) -> dict:
         e = B / rho * (jnp.power(rho / f.rho0, g) / (g - 1.0) + 1.0) - B / f.rho0 * (g / (g - 1.0))
     else:
         c2 = f.c0**2
-        e = c2 * (jnp.log(rho / f.rho0) + f.rho0 / rho - 1.0)
+        ratio = jnp.maximum(rho, f.rho0) / f.rho0  # seed clamps p >= 0 (sph/seed.py, deviation 2)
+        e = c2 * (jnp.log(ratio) + 1.0 / ratio - 1.0)
     elastic = jnp.sum(m * e)
     return {"kinetic": kinetic, "potential": potential, "elastic": elastic, "total": kinetic + potential + elastic}
 
