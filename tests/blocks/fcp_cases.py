@@ -101,7 +101,7 @@ def fcp_fn(iterations: int):
                        iterations=iterations)
         pts, depth, active = pair_contacts(Xi, bi["vm"], Ni, Di, bi["fm"], bi["e"], bi["em"], bi["r"],
                                            Xj, bj["vm"], Nj, Dj, bj["fm"], bj["e"], bj["em"], bj["r"],
-                                           out["normal"],
+                                           out["normal"], out["gap"],
                                            tol_rel=1e-4, edge_contacts=True)
         out.update(points=pts, depth=depth, active=active)
         return out
@@ -113,7 +113,7 @@ def place_at_gap(pi, qi, pj, qj, direction, target):
     """Centroid of j (i at the origin) along ``direction`` so that the exact SAT gap is ``target`` (m)."""
     u = np.asarray(direction, float) / np.linalg.norm(direction)
     lo, hi = 0.0, 10.0 * (pi.bounding_radius + pj.bounding_radius) + abs(target)
-    for _ in range(100):
+    for _ in range(60):
         mid = 0.5 * (lo + hi)
         g = sat(pi, qi, np.zeros(3), pj, qj, mid * u)[0]
         if g < target:

@@ -11,7 +11,10 @@ pruned; each kind has its own fixed slot so the shear history follows the featur
 * vertices of i inside block j (slot = vertex of i): depth = distance along -n out of j;
 * edge-edge crossings (slot = edge of i x edge of j): the two edges, projected on the common
   plane, cross strictly inside both; the crossing point of i's edge lies inside j and that of
-  j's edge inside i; depth = n.(p_i - p_j) > 0.
+  j's edge inside i; depth = n.(p_i - p_j) > 0;
+* fallback (one slot): if the pair overlaps but none of the above exists (an edge passing
+  through a face), one point at the centre of the edges clipped by the other block, depth = the
+  common-plane overlap.
 
 "Inside" is the face-plane test with a tolerance of ``inside_tolerance x radius`` (points on a
 side face, as at the corners of a face-on-face contact, count).
@@ -83,15 +86,16 @@ def _tangent_basis(n):
     return t1, t2
 
 
-def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj, rj, n, *,
+def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj, rj, n, gap, *,
                   tol_rel: float, edge_contacts: bool):
     """Contact points of one pair for the common-plane normal n.
 
     Args:
       X*: [V,3] world vertices; m*: [V]; N*: [F,3] world normals; D*: [F] offsets; fm*: [F];
-      e*: [nE,2] edges; em*: [nE]; r*: [] bounding radii (m).  n: [3] unit normal i -> j.
+      e*: [nE,2] edges; em*: [nE]; r*: [] bounding radii (m).  n: [3] unit normal i -> j;
+      gap: [] m, the common-plane gap (< 0: overlap).
     Returns:
-      ``(points [S,3] m, depth [S] m, active [S] bool)`` with S = 2 V (+ nE^2 with edge contacts).
+      ``(points [S,3] m, depth [S] m, active [S] bool)`` with S = 2 V (+ nE^2 with edge contacts) + 1.
     """
     tol_i, tol_j = tol_rel * ri, tol_rel * rj
     # vertices of j inside i (depth: distance to leave i along +n), vertices of i inside j (along -n)
@@ -133,10 +137,41 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
         pts.append((0.5 * (p + q)).reshape(-1, 3))
         dep.append(de.reshape(-1))
         act.append(ok.reshape(-1))
+    # fallback slot: an overlap (gap < 0) with none of the points above -- an edge passing through
+    # a face, where no vertex lies inside and no two edges cross -- gets one point at the centre of
+    # the edge segments clipped by the other block, with the common-plane overlap as depth
+    ci, ki = _clipped_centre(Xi, ei, emi, Nj, Dj, fmj)
+    cj, kj = _clipped_centre(Xj, ej, emj, Ni, Di, fmi)
+    none = ~jnp.any(jnp.concatenate(act, 0))
+    k = ki + kj
+    fb_ok = none & (gap < 0) & (k > 0)
+    pts.append(((ci + cj) / jnp.maximum(k, 1.0))[None])
+    dep.append(-gap[None])
+    act.append(fb_ok[None])
     points = jnp.concatenate(pts, 0)
     depth = jnp.concatenate(dep, 0)
     active = jnp.concatenate(act, 0)
     return points, jnp.where(active, depth, 0.0), active
+
+
+def _clipped_centre(X, e, em, N, D, fm):
+    """Sum of the end points of the edges (X [V,3], e [nE,2]) clipped to the polyhedron (N, D) and
+    their count: ``(sum [3], count [])`` (Cyrus-Beck clipping)."""
+    a0, a1 = X[e[:, 0]], X[e[:, 1]]
+    s0 = a0 @ N.T - D  # [nE, F]
+    s1 = a1 @ N.T - D
+    out = fm & (s0 > 0) & (s1 > 0)
+    den = jnp.where(jnp.abs(s0 - s1) > 0, s0 - s1, 1.0)
+    t = s0 / den
+    enter = fm & (s0 > 0) & (s1 <= 0)
+    leave = fm & (s0 <= 0) & (s1 > 0)
+    t0 = jnp.max(jnp.where(enter, t, 0.0), -1)
+    t1 = jnp.min(jnp.where(leave, t, 1.0), -1)
+    ok = em & ~jnp.any(out, -1) & (t0 < t1)
+    p0 = a0 + t0[:, None] * (a1 - a0)
+    p1 = a0 + t1[:, None] * (a1 - a0)
+    w = ok.astype(X.dtype)[:, None]
+    return jnp.sum(w * (p0 + p1), 0), 2.0 * jnp.sum(w)
 
 
 def _remap(old: ContactHistory, pairs, mask, B):
@@ -193,7 +228,7 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     )(
         Xw[i], sh.vertex_mask[i], Nw[i], Dw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i], sh.radius[i],
         Xw[j], sh.vertex_mask[j], Nw[j], Dw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j], sh.radius[j],
-        n,
+        n, fcp["gap"],
     )
     active = active & mask[:, None]
     depth = jnp.where(active, depth, 0.0)

@@ -122,8 +122,8 @@ class BlockConfig:
 
     @property
     def contact_slots(self) -> int:
-        """Contact slots per pair: vertices of j in i, vertices of i in j, edge x edge crossings."""
-        return 2 * self.max_vertices + (self.max_edges**2 if self.edge_contacts else 0)
+        """Contact slots per pair: vertices of j in i, vertices of i in j, edge x edge crossings, fallback."""
+        return 2 * self.max_vertices + (self.max_edges**2 if self.edge_contacts else 0) + 1
 
     @property
     def static_pairs(self) -> tuple:
