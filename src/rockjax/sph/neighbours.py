@@ -124,7 +124,7 @@ def pair_geometry(x_rows, x_all, idx, grid: GridSpec):
         ``(d, r, r2)``: ``d`` a tuple of three [R, K] arrays ``x_i - x_j`` (minimum image),
         ``r`` and ``r2`` [R, K].
     """
-    d = tuple(min_image(x_rows[:, a, None] - x_all[:, a][idx], a, grid) for a in range(3))
+    d = tuple(min_image(x_rows[:, a, None] - take(x_all[:, a], idx), a, grid) for a in range(3))
     r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
     return d, safe_norm(r2), r2
 
@@ -147,7 +147,7 @@ def pairs(x, kind, idx, config: Config) -> Pairs:
     """``Pairs`` of the fluid rows for positions ``x`` [N, 3] and list ``idx`` [n_fluid, K]."""
     nf = config.n_fluid
     d, r, r2 = pair_geometry(x[:nf], x, idx, config.grid)
-    mask = (idx != jnp.arange(nf)[:, None]) & (kind[idx] != Kind.PAD) & (kind[:nf, None] != Kind.PAD)
+    mask = (idx != jnp.arange(nf)[:, None]) & (take(kind, idx) != Kind.PAD) & (kind[:nf, None] != Kind.PAD)
     return Pairs(d=d, r=r, r2=r2, idx=idx, mask=mask)
 
 

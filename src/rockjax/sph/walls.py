@@ -14,7 +14,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from ..types import Config, Kind
-from .neighbours import Pairs, transpose_sum
+from .neighbours import Pairs, take, transpose_sum
 
 __all__ = ["adami_pressure"]
 
@@ -34,7 +34,7 @@ def adami_pressure(pr: Pairs, p, rho, kind, gravity, h, w_fn, config: Config, *,
         return p
     nf = config.n_fluid
     n = config.n_particles
-    kind_j = kind[pr.idx] if kind_j is None else kind_j
+    kind_j = take(kind, pr.idx) if kind_j is None else kind_j
     use = pr.mask & (kind[:nf, None] == Kind.FLUID) & (kind_j == Kind.WALL)
     w = jnp.where(use, w_fn(pr.r, h), 0.0)
     g_d = pr.d[0] * gravity[0] + pr.d[1] * gravity[1] + pr.d[2] * gravity[2]  # g . (x_f - x_w)

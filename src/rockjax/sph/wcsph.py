@@ -25,7 +25,7 @@ import jax.numpy as jnp
 from ..types import Config, DensityDiffusion, Kind, NeighbourList, Params, Particles, Viscosity, WallModel
 from .eos import tait_density, tait_pressure
 from .kernels import kernel_pair
-from .neighbours import Pairs, pairs, transpose_sum, wrap_positions
+from .neighbours import Pairs, pairs, take, transpose_sum, wrap_positions
 from .walls import adami_pressure
 
 __all__ = ["PairTerms", "pair_terms", "density_rate", "acceleration", "pressure", "advance", "prime",
@@ -49,7 +49,7 @@ def pair_terms(pr: Pairs, kind, params: Params, config: Config) -> PairTerms:
     """``PairTerms`` for pairs ``pr`` and particle kinds [N]."""
     _, f_fn = kernel_pair(config.kernel)
     F = jnp.where(pr.mask, f_fn(pr.r, params.fluid.h), 0.0)
-    return PairTerms(pr=pr, F=F, kind_j=kind[pr.idx])
+    return PairTerms(pr=pr, F=F, kind_j=take(kind, pr.idx))
 
 
 def hydrostatic_density_difference(g_dx, params: Params, config: Config):
@@ -104,11 +104,11 @@ def density_rate(pr: Pairs, v, rho, vol, kind, params: Params, config: Config, *
     idx, d, F, kind_j = pr.idx, pr.d, t.F, t.kind_j
     V = f.rho0 * vol / rho  # particle volumes m^3
     rho_i = rho[:nf, None]
-    V_j = V[idx]
-    vr = sum((v[:nf, a, None] - v[:, a][idx]) * d[a] for a in range(3))
+    V_j = take(V, idx)
+    vr = sum((v[:nf, a, None] - take(v[:, a], idx)) * d[a] for a in range(3))
     drho = rho_i * V_j * vr * F
     if config.density_diffusion != DensityDiffusion.NONE:
-        diff = rho[idx] - rho_i
+        diff = take(rho, idx) - rho_i
         if config.density_diffusion == DensityDiffusion.FOURTAKAS:
             g_dx = -(d[0] * params.gravity[0] + d[1] * params.gravity[1] + d[2] * params.gravity[2])
             diff = diff - hydrostatic_density_difference(g_dx, params, config)
@@ -133,11 +133,11 @@ def acceleration(pr: Pairs, v, rho, p, vol, kind, params: Params, config: Config
     nf = config.n_fluid
     idx, d, r2, F = pr.idx, pr.d, pr.r2, t.F
     rho_i = rho[:nf, None]
-    rho_j = rho[idx]
-    m_j = f.rho0 * vol[idx]
-    coef = -m_j * (p[:nf, None] + p[idx]) / (rho_i * rho_j)
+    rho_j = take(rho, idx)
+    m_j = f.rho0 * take(vol, idx)
+    coef = -m_j * (p[:nf, None] + take(p, idx)) / (rho_i * rho_j)
     eta2 = 0.01 * h * h
-    vij = tuple(v[:nf, a, None] - v[:, a][idx] for a in range(3))
+    vij = tuple(v[:nf, a, None] - take(v[:, a], idx) for a in range(3))
     if config.viscosity == Viscosity.ARTIFICIAL:
         vr = vij[0] * d[0] + vij[1] * d[1] + vij[2] * d[2]
         mu = h * vr / (r2 + eta2)
