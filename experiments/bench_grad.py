@@ -1,0 +1,186 @@
+"""Gradient and ensemble benchmarks: backward/forward time ratio, reverse-mode memory against the
+number of steps, and ensemble throughput. JSON lines on stdout.
+
+1. For T, 4T, 16T steps (``--base-steps`` T, default 2 list rebuilds): the forward rollout
+   (``checkpoint=False``), ``jax.value_and_grad`` of the checkpointed rollout (nested
+   ``jax.checkpoint`` chunks of ~sqrt(blocks), ``rockjax.rollout``) and, for memory only, the
+   un-checkpointed gradient. Time: median of ``--repeats`` runs after a warm-up (compile
+   excluded). Memory: XLA's compiled ``memory_analysis()`` -- temporary buffers of the compiled
+   program (``temp_bytes``), which is the peak working set beyond inputs and outputs; it is
+   deterministic, unlike process RSS on a shared machine.
+2. Ensemble throughput (forward, ``rockjax.ensembles.run_ensemble``) at batch 1, 8, 64, against
+   running the same members one by one with a jitted single-member rollout: scenario-steps/s.
+
+Scenes (``--scene``): ``dam`` (default: a 0.3 x 0.3 x 0.5 m dam break at dx = 0.05 m, fluid
+only), ``incline`` (blocks only), ``wedge`` (coupled, dx = 0.05 m). ``--f64`` for float64.
+
+    .venv/bin/python experiments/bench_grad.py [--scene dam] [--base-steps 16] [--f64]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import statistics
+import time
+
+
+def build(name: str):
+    import numpy as np
+
+    from rockjax import scenes
+
+    if name == "dam":
+        return scenes.dam_break(dx=0.05, column_length=0.3, column_width=0.3, column_height=0.5, tank_length=0.8,
+                                tank_width=0.3)
+    if name == "wedge":
+        return scenes.sliding_wedge(dx=0.05, slope_angle_deg=40.0, block_length=0.2, block_width=0.2,
+                                    water_depth=0.2, flat_length=0.4, flume_width=0.4, start_distance=0.0)
+    if name == "incline":
+        from rockjax import blocks as B
+        from rockjax.scenes.coupled import coupled_scene
+
+        geo = B.geometry
+        th = math.radians(30.0)
+        n = np.array([math.sin(th), 0.0, math.cos(th)])
+        c, s = math.cos(th), math.sin(th)
+        box = geo.box(0.2, 0.2, 0.1)
+        tilted = geo.ConvexPolyhedron.from_vertices(
+            box.vertices @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]).T + 0.05 * n)
+        slope = geo.slope(4.0, 2.0, 0.2, 30.0)
+        return coupled_scene(name="incline", dx=None, polyhedra=[tilted, slope],
+                             positions=[tilted.centroid_world, slope.centroid_world],
+                             motion=(B.Motion.DYNAMIC, B.Motion.FIXED), block_density=2500.0,
+                             friction_angle_deg=20.0, block_kwargs=dict(penalty_modulus=1e7))
+    raise SystemExit(f"unknown scene {name!r}")
+
+
+def objective(scene):
+    """A scalar of the final state that depends on every part of the scene."""
+    import jax.numpy as jnp
+
+    def f(state, params):
+        out = 0.0
+        if state.particles is not None:
+            m = state.particles.kind == 0
+            out = out + jnp.sum(jnp.where(m[:, None], state.particles.v**2, 0.0))
+        if state.blocks is not None:
+            out = out + jnp.sum(state.blocks.x[0])
+        return out
+
+    return f
+
+
+def timed(fn, *args, repeats: int):
+    import jax
+
+    jax.block_until_ready(fn(*args))  # warm-up (compile)
+    ts = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        jax.block_until_ready(fn(*args))
+        ts.append(time.perf_counter() - t)
+    return statistics.median(ts)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scene", default="dam", choices=["dam", "incline", "wedge"])
+    ap.add_argument("--base-steps", type=int, default=None, help="T (default 2 list rebuilds)")
+    ap.add_argument("--multiples", type=int, nargs="+", default=[1, 4, 16])
+    ap.add_argument("--batches", type=int, nargs="+", default=[1, 8, 64])
+    ap.add_argument("--ensemble-steps", type=int, default=None, help="steps per member (default T)")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--f64", action="store_true")
+    ap.add_argument("--skip-grad", action="store_true")
+    ap.add_argument("--skip-ensemble", action="store_true")
+    args = ap.parse_args(argv)
+
+    import jax
+
+    if args.f64:
+        jax.config.update("jax_enable_x64", True)
+    import jax.numpy as jnp
+
+    from rockjax import ensembles, prime
+    from rockjax.calibrate import observed
+    from rockjax.rollout import default_chunk
+
+    scene = build(args.scene)
+    config = scene.config
+    k = config.rebuild_every
+    T = args.base_steps or 2 * k
+    obj = objective(scene)
+    n_part = config.n_particles
+    base = dict(scene=args.scene, n_fluid=config.n_fluid, n_wall=config.n_wall,
+                n_blocks=(config.blocks.n_blocks if config.blocks else 0), dtype="f64" if args.f64 else "f32",
+                dt=config.dt, rebuild_every=k, device=str(jax.devices()[0].platform))
+    state0 = jax.jit(prime, static_argnums=2)(scene.state, scene.params, config)
+
+    if not args.skip_grad:
+        for mult in args.multiples:
+            n = mult * T
+
+            def fwd(p, n=n):
+                s, _ = observed(config, p, n, None, state=state0, checkpoint=False, prime=False)
+                return obj(s, p)
+
+            def loss(p, n=n, ck=True):
+                s, _ = observed(config, p, n, None, state=state0, checkpoint=ck, prime=False)
+                return obj(s, p)
+
+            f_jit = jax.jit(fwd)
+            g_jit = jax.jit(jax.value_and_grad(loss))
+            g_plain = jax.jit(jax.value_and_grad(lambda p, n=n: loss(p, n, False)))
+            mem = {}
+            for name, fn in (("forward", f_jit), ("grad_checkpointed", g_jit), ("grad_plain", g_plain)):
+                t = time.perf_counter()
+                c = fn.lower(scene.params).compile()
+                ma = c.memory_analysis()
+                mem[name] = dict(temp_bytes=int(ma.temp_size_in_bytes), compile_s=time.perf_counter() - t)
+            t_f = timed(f_jit, scene.params, repeats=args.repeats)
+            t_g = timed(g_jit, scene.params, repeats=args.repeats)
+            print(json.dumps(dict(base, bench="grad", steps=n, multiple=mult, blocks=n // k,
+                                  chunk=default_chunk(n // k), forward_s=t_f, grad_s=t_g, grad_over_forward=t_g / t_f,
+                                  forward_temp_bytes=mem["forward"]["temp_bytes"],
+                                  grad_checkpointed_temp_bytes=mem["grad_checkpointed"]["temp_bytes"],
+                                  grad_plain_temp_bytes=mem["grad_plain"]["temp_bytes"],
+                                  compile_s={kk: v["compile_s"] for kk, v in mem.items()})), flush=True)
+
+    if not args.skip_ensemble:
+        n = args.ensemble_steps or T
+        fields = {}
+        if scene.params.fluid is not None:
+            fields["fluid.c0"] = float(scene.params.fluid.c0)
+        if scene.params.blocks is not None:
+            fields["blocks.friction_angle"] = float(scene.params.blocks.friction_angle)
+
+        def sample(b):
+            return ensembles.batch(scene.params, b, {f: v * jnp.linspace(0.9, 1.1, b) for f, v in fields.items()})
+
+        def one(p):
+            s, _ = observed(config, p, n, None, state=state0, checkpoint=False, prime=False)
+            return obj(s, p)
+
+        single = jax.jit(one)
+        p8 = sample(8)
+        members = ensembles.unstack(p8)
+        jax.block_until_ready(single(members[0]))
+        t = time.perf_counter()
+        for m in members:
+            jax.block_until_ready(single(m))
+        t_one = (time.perf_counter() - t) / len(members)
+        print(json.dumps(dict(base, bench="ensemble", mode="one_by_one", steps=n, seconds_per_member=t_one,
+                              scenario_steps_per_s=n / t_one)), flush=True)
+        for b in args.batches:
+            fn = ensembles.ensemble(one)
+            pb = sample(b)
+            tb = timed(fn, pb, repeats=max(1, args.repeats - 1))
+            print(json.dumps(dict(base, bench="ensemble", mode="vmap", batch=b, steps=n, seconds=tb,
+                                  scenario_steps_per_s=b * n / tb, speedup_vs_one_by_one=(b * n / tb) / (n / t_one))),
+                  flush=True)
+
+
+if __name__ == "__main__":
+    main()
