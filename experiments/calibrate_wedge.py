@@ -3,7 +3,7 @@ observations of the wedge position and two wave gauges.
 
 Scene: ``rockjax.scenes.sliding_wedge`` scaled down (dx = 0.05 m by default: a 0.2 m wedge on a
 40 degree slope, friction 15 deg, density 2500 kg/m^3, 0.2 m of water, seed Eq 22 penalty
-coupling), float64, ``--steps`` steps (default 248 = 0.2 s). Observations after every block of
+coupling), float64, ``--steps`` steps (default 248 = 0.19 s). Observations after every block of
 ``rebuild_every`` steps: the wedge's down-slope coordinate and the free-surface elevation at
 x = 0.15 and 0.30 m (``observables.gauge_elevation``), made with the true parameters. The fit
 starts from +20 % density and -20 % friction angle (``--start``) and runs

@@ -126,12 +126,12 @@ def dam_functional(config, n_steps: int = DAM_STEPS):
 # --------------------------------------------------------------------------------------------
 
 WEDGE_SLOPE_DEG = 40.0
-WEDGE_STEPS = 248  # 31 list rebuilds x 8 steps x dt 8.2e-4 s -> 0.2 s
+WEDGE_STEPS = 248  # 31 list rebuilds x 8 steps x dt 7.6e-4 s -> 0.19 s
 
 
 def tiny_wedge():
     """``scenes.sliding_wedge`` at dx = 0.05 m: a 0.2 m wedge on a 40 degree slope (friction 15
-    deg), front at the shoreline, 0.2 m deep water, 0.4 m flat (~460 fluid, ~4600 wall particles),
+    deg), front at the shoreline, 0.2 m deep water, 0.4 m flat (408 fluid, 4390 wall particles),
     seed Eq 22 penalty coupling."""
     from rockjax import scenes
 
