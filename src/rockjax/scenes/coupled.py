@@ -54,17 +54,16 @@ def coupling_params(*, dx: float, c0: float, stiffness: float | None = None, dam
 
 def sample_block_particles(poly, dx: float, layers: int) -> np.ndarray:
     """Body-frame boundary particles of a convex block: lattice points inside it within
-    ``layers * dx`` of its surface (``[n, 3]`` m). The lattice has a node every dx offset by
-    dx/2 from the centroid, so a box whose sides are whole multiples of dx gets its outer layer
-    dx/2 inside each face (the face is then where the fluid sees it, as for tank walls)."""
+    ``layers * dx`` of its surface (``[n, 3]`` m). The lattice starts dx/2 inside the corner of
+    the block's bounding box, so a box whose sides are whole multiples of dx has its outer layer
+    dx/2 inside every face (the face is then where the fluid sees it, as for tank walls)."""
     hs = [(np.asarray(n, float), float(d)) for n, d in zip(poly.face_normal, poly.face_offset)]
-    ext = np.max(np.abs(poly.vertices), axis=0) + dx
-    n_cells = np.ceil(ext / dx).astype(int)
-    lo = -n_cells * dx
-    hi = n_cells * dx
-    pts = lattice(lo, hi, dx)
+    vmin = np.min(poly.vertices, axis=0)
+    vmax = np.max(poly.vertices, axis=0)
+    n_cells = np.maximum(np.round((vmax - vmin) / dx), 1)
+    pts = lattice(vmin, vmin + n_cells * dx, dx)
     phi = clearance(pts, hs)  # inside the block: phi >= 0
-    keep = (phi > 0) & (phi < layers * dx)
+    keep = (phi > 0.25 * dx) & (phi < layers * dx)
     if not np.any(keep):
         raise ValueError(f"block too thin for dx = {dx} m: no boundary particle fits inside it; use a smaller dx")
     return pts[keep]
@@ -330,7 +329,7 @@ def floating_box(*, dx: float = 0.02, box_size=(0.2, 0.2, 0.1), box_density: flo
     height = water_depth + 2 * lz
     water, walls = _box_tank(dx=dx, length=L, width=W, depth=water_depth, height=height, layers=layers)
     # remove water inside (and within r0 of) the box
-    lo_b, hi_b = pos - 0.5 * np.array([lx, ly, lz]) - dx, pos + 0.5 * np.array([lx, ly, lz]) + dx
+    lo_b, hi_b = pos - 0.5 * np.array([lx, ly, lz]) - 0.25 * dx, pos + 0.5 * np.array([lx, ly, lz]) + 0.25 * dx
     water = water[~np.all((water > lo_b) & (water < hi_b), axis=1)]
     pad = layers * dx
     c0 = 10.0 * math.sqrt(2 * GRAVITY * water_depth) if c0 is None else c0
