@@ -7,12 +7,13 @@ The public API, re-exported explicitly:
 * ``make_step(config) -> step(state, params)``; ``prime``; ``make_rollout`` / ``rollout``;
 * ``simulate(scene, t_end=...)`` (the host driver) and ``SimulationError``;
 * ``scenes`` (built-in scene builders returning a ``Scene``), ``observables``, ``io``;
-* the physics packages: ``blocks`` (3D-DDA rock blocks), ``coupling`` (fluid-block exchange).
+* the physics packages: ``blocks`` (3D-DDA rock blocks), ``coupling`` (fluid-block exchange);
+* ``calibrate`` (differentiable losses, optax calibration) and ``ensembles`` (vmap / sharded runs).
 """
 
 __version__ = "0.1.0"
 
-from . import blocks, coupling, io, observables, scenes
+from . import blocks, calibrate, coupling, ensembles, io, observables, scenes
 from .driver import Result, SimulationError, simulate
 from .rollout import make_rollout, rollout
 from .scenes import Scene
@@ -29,5 +30,5 @@ __all__ = [
     "Scheme", "KernelKind", "Viscosity", "WallModel", "DensityDiffusion", "Coupling", "Kind", "Status",
     "make_step", "prime", "make_rollout", "rollout",
     "simulate", "Result", "SimulationError",
-    "Scene", "scenes", "observables", "io", "blocks", "coupling",
+    "Scene", "scenes", "observables", "io", "blocks", "coupling", "calibrate", "ensembles",
 ]

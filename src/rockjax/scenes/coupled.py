@@ -431,8 +431,11 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
 
 
 def block_on_incline(*, angle_deg: float = 30.0, friction_angle_deg: float = 20.0, block_size=(0.2, 0.2, 0.1),
-                     block_density: float = 2500.0) -> Scene:
-    """Blocks only: a box resting on a fixed incline (no water; no SPH is traced)."""
+                     block_density: float = 2500.0, block_kwargs: dict | None = None) -> Scene:
+    """Blocks only: a box resting on a fixed incline (no water; no SPH is traced).
+
+    ``block_kwargs`` go to ``blocks.make_blocks`` (e.g. ``penalty_modulus=1e7`` for a softer
+    contact and a 10x larger stable step)."""
     blocks = _blocks_api()
     geo = blocks.geometry
     lx, ly, lz = (float(s) for s in block_size)
@@ -447,4 +450,4 @@ def block_on_incline(*, angle_deg: float = 30.0, friction_angle_deg: float = 20.
     return coupled_scene(name="block_on_incline", dx=None, polyhedra=[tilted, slope],
                          positions=[tilted.centroid_world, slope.centroid_world],
                          motion=(blocks.Motion.DYNAMIC, blocks.Motion.FIXED), block_density=block_density,
-                         friction_angle_deg=friction_angle_deg, meta=meta)
+                         friction_angle_deg=friction_angle_deg, block_kwargs=block_kwargs, meta=meta)
