@@ -21,7 +21,7 @@ from rockjax.blocks import box, quat_from_axis_angle
 
 from fcp_cases import fcp_fn, padded, place_at_gap, random_block, random_rotation, sat
 
-ITER = 4  # the default BlockConfig.fcp_iterations
+ITER = 2  # the default make_blocks fcp_iterations
 
 
 def run_fcp(pi, qi, xi, pj, qj, xj, *, iterations=ITER, n_prev=None):

@@ -77,7 +77,8 @@ class BlockConfig:
       grid_cell_size: m, uniform-grid cell (GRID; default 1.5 x median block size, seed section 2).
       grid_cell_capacity: most blocks per grid cell (GRID); more set CONTACT_OVERFLOW.
       large_blocks: blocks bigger than a grid cell (GRID): tested against every block directly.
-      edge_contacts: also use edge-edge crossings as contact points (default True).
+      edge_contacts: also use edge-edge crossings as contact points (default True; they cost
+        max_edges^2 slots per pair, 144 for boxes).
       inside_tolerance: relative (to the block's bounding radius) tolerance of the
         point-in-block test that decides which vertices / crossings are contact points.
       penetration_limit: depth / min(bounding radius) above which BLOCK_PENETRATION is set.
@@ -91,12 +92,12 @@ class BlockConfig:
     max_valence: int
     motion: tuple
     pair_capacity: int
-    fcp_iterations: int = 4
+    fcp_iterations: int = 2
     broadphase: Broadphase = Broadphase.ALL_PAIRS
     prescribed_direction: tuple = ()
     aabb_margin: float = 0.0
     grid_cell_size: float = 1.0
-    grid_cell_capacity: int = 8
+    grid_cell_capacity: int = 32
     large_blocks: tuple = ()
     edge_contacts: bool = True
     inside_tolerance: float = 1e-4
@@ -177,7 +178,8 @@ class BlockShape:
       edges [B,nE,2] int32 vertex pairs; edge_mask [B,nE];
       he_vert, he_next, he_pair, he_face [B,E] int32; halfedge_mask [B,E];
       star_face [B,V,K] faces around each vertex; star_vertex [B,V,K] the other end of each edge
-      leaving the vertex; star_mask [B,V,K] (from half-edge walks: seed section 4);
+      leaving the vertex; star_mask [B,V,K] (from half-edge walks: seed section 4; kept for local
+      queries -- the FCP itself works on support sets over ``edges``, see ``fcp``);
       volume [B] m^3; inertia_unit [B,3,3] m^5 (inertia for unit density, body frame);
       radius [B] m (bounding radius about the centroid).
     """
@@ -268,8 +270,8 @@ def world_inertia(state: BlockState, params: BlockParams) -> jax.Array:
 def energies(state: BlockState, params: BlockParams, gravity, config: Optional[BlockConfig] = None) -> dict:
     """Kinetic and gravitational potential energy (J) of the DYNAMIC blocks.
 
-    ``potential = -sum m g.x`` (zero at the origin).  With ``config`` None every block with
-    non-zero velocity counts as dynamic... so pass ``config`` whenever FIXED / PRESCRIBED blocks exist.
+    ``potential = -sum m g.x`` (zero at the origin).  With ``config`` None every block counts,
+    so pass ``config`` whenever FIXED / PRESCRIBED blocks exist.
 
     Args:
       gravity: [3] m/s^2.
@@ -398,11 +400,11 @@ def make_blocks(
     period: float = 1.0,
     prescribed_direction=None,
     pair_capacity: Optional[int] = None,
-    fcp_iterations: int = 4,
+    fcp_iterations: int = 2,
     broadphase: Optional[Broadphase] = None,
     aabb_margin: Optional[float] = None,
     grid_cell_size: Optional[float] = None,
-    grid_cell_capacity: int = 8,
+    grid_cell_capacity: int = 32,
     edge_contacts: bool = True,
     inside_tolerance: float = 1e-4,
     penetration_limit: float = 0.1,
