@@ -151,7 +151,7 @@ def block_energies(state: State, params: Params, config: Config) -> dict:
     """Kinetic and potential energy [J] of the blocks that move (``rockjax.blocks.energies``)."""
     from . import blocks
 
-    return blocks.energies(state.blocks, params.blocks, params.gravity)
+    return blocks.energies(state.blocks, params.blocks, params.gravity, config.blocks)
 
 
 def impact_velocity(times, block_x, block_v, *, block, still_level, bottom_offset):
