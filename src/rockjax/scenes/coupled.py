@@ -200,7 +200,7 @@ def _flume_walls_and_water(*, dx, layers, halfspaces, water_halfspaces, lo, hi):
 def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_density: float = 2500.0,
                   friction_angle_deg: float = 15.0, block_length: float = 0.4, block_width: float = 0.2,
                   water_depth: float = 0.4, flat_length: float = 1.0, far_slope_deg: float = 30.0,
-                  flume_width: float = 0.3, start_distance: float = 0.1, coupling: Coupling = Coupling.PENALTY,
+                  flume_width: float = 0.4, start_distance: float = 0.1, coupling: Coupling = Coupling.PENALTY,
                   h_factor: float = 1.3, c0: float | None = None, rebuild_every: int = 8) -> Scene:
     """The seed's second example: a rigid wedge sliding down a 25 degree plane into water.
 
@@ -223,7 +223,7 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
         raise ValueError(f"sliding_wedge: slope_angle_deg must be in [5, 60] degrees (got {slope_angle_deg})")
     if not 5.0 <= far_slope_deg <= 60.0:
         raise ValueError(f"sliding_wedge: far_slope_deg must be in [5, 60] degrees (got {far_slope_deg})")
-    if block_width > flume_width - 2 * dx:
+    if block_width > flume_width - 2 * dx + 1e-9:
         raise ValueError(f"sliding_wedge: block_width ({block_width} m) must leave >= 1 dx on each side in the flume "
                          f"(flume_width {flume_width} m); make the flume wider or the block narrower")
     if water_depth < 4 * dx:
