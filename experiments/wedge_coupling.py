@@ -6,7 +6,7 @@ on the far beach (hard and smooth), the wedge trajectory and its impact speed ar
 Prints one JSON line per method and writes ``experiments/results/wedge_coupling.json`` and a
 PNG of gauges and run-up. Differences between the two are the coupling's, not the scene's.
 
-    python experiments/wedge_coupling.py --dx 0.04 --t-end 1.5
+    python experiments/wedge_coupling.py --dx 0.04 --t-end 1.5 --flat-length 0.5
 """
 
 from __future__ import annotations
@@ -22,11 +22,11 @@ import numpy as np
 OUT = pathlib.Path(__file__).resolve().parent / "results"
 
 
-def run(dx: float, t_end: float, coupling: str) -> dict:
+def run(dx: float, t_end: float, coupling: str, flat_length: float = 0.5) -> dict:
     import rockjax as rj
     from rockjax.observables import impact_velocity, scene_observer
 
-    scene = rj.scenes.sliding_wedge(dx=dx, coupling=rj.Coupling(coupling))
+    scene = rj.scenes.sliding_wedge(dx=dx, coupling=rj.Coupling(coupling), flat_length=flat_length)
     t0 = time.perf_counter()
     res = rj.simulate(scene, t_end=t_end, frame_dt=0.02, observe=scene_observer(scene.meta), progress=False)
     wall = time.perf_counter() - t0
@@ -49,10 +49,13 @@ def main():
     ap.add_argument("--dx", type=float, default=0.04)
     ap.add_argument("--t-end", type=float, default=1.5)
     ap.add_argument("--coupling", nargs="+", default=["penalty", "boundary_particles"])
+    ap.add_argument("--flat-length", type=float, default=0.5,
+                    help="flat between the slope toe and the beach [m] (0.5: the wave reaches the beach "
+                         "before the wedge reaches the toe, ~1.55 s at dx 0.04)")
     a = ap.parse_args()
     rows = []
     for c in a.coupling:
-        r = run(a.dx, a.t_end, c)
+        r = run(a.dx, a.t_end, c, a.flat_length)
         rows.append(r)
         print(json.dumps({k: v for k, v in r.items() if k not in ("times", "gauges", "runup")}), flush=True)
     OUT.mkdir(exist_ok=True)

@@ -371,7 +371,7 @@ def block_drop(*, dx: float = 0.02, box_size=(0.1, 0.1, 0.1), box_density: float
 
 def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float = 1.0, water_depth: float = 0.3,
                      flat_length: float = 2.0, beach_slope: float = 0.04, beach_length: float | None = None,
-                     flume_width: float = 0.1, periodic_y: bool = True, coupling: Coupling = Coupling.PENALTY,
+                     flume_width: float | None = None, periodic_y: bool = True, coupling: Coupling = Coupling.PENALTY,
                      gauge_x=None, h_factor: float = 1.3, c0: float | None = None) -> Scene:
     """The seed's first example: a piston wave maker, a flat section and a sloping beach.
 
@@ -380,10 +380,13 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     then the beach rises at ``beach_slope`` (rise/run; the seed's is 4 %) for ``beach_length``
     (default: up to 0.5 water depths above the still level). Wave gauges at ``gauge_x`` [m]
     (default 0.3 and 0.6 of the flat). ``periodic_y`` makes the flume a
-    thin periodic slab (a 2D flume experiment). The paper's scale (70 m flat, ~65k particles) is
+    thin periodic slab (a 2D flume experiment; ``flume_width`` defaults to 7 dx then, the
+    narrowest period the neighbour search allows, else to 0.1 m). The paper's scale (70 m flat, ~65k particles) is
     ``dx`` ~0.1 with ``flat_length=70``; the default is a small flume for tests.
     """
     dx = _positive("piston_wavemaker: dx", dx)
+    if flume_width is None:
+        flume_width = 7 * dx if periodic_y else 0.1
     for nm, v in (("stroke", stroke), ("period", period), ("water_depth", water_depth),
                   ("flat_length", flat_length), ("beach_slope", beach_slope), ("flume_width", flume_width)):
         _positive(f"piston_wavemaker: {nm}", v)
