@@ -47,6 +47,7 @@ def _fd(loss, par, field, h):
     return (hi - lo) / (2 * h)
 
 
+@pytest.mark.slow  # the default run covers the same check in tests/gradients/test_blocks_grad.py
 def test_grad_friction_angle_matches_fd(scene):
     par, loss, grad = scene
     g = float(grad(par).friction_angle)
@@ -61,6 +62,7 @@ def test_grad_friction_angle_matches_fd(scene):
     assert g == pytest.approx(closed, rel=5e-2), (g, closed)
 
 
+@pytest.mark.slow  # likewise (tests/gradients/test_blocks_grad.py, density)
 def test_grad_density_finite_and_matches_fd(scene):
     """Sliding is mass-independent for a rigid contact; with penalty springs the mass enters
     through the contact compliance only, so d s / d rho is tiny: compare AD with FD on the
