@@ -107,9 +107,7 @@ def _round8(n: float) -> int:
 def _grow(config: Config, state: State, bits: int) -> Config:
     changes = {}
     if bits & Status.CONTACT_OVERFLOW:
-        changes["blocks"] = config.blocks.replace(pair_capacity=_round8(2 * config.blocks.pair_capacity)) \
-            if hasattr(config.blocks, "replace") else dataclasses.replace(
-                config.blocks, pair_capacity=_round8(2 * config.blocks.pair_capacity))
+        changes["blocks"] = dataclasses.replace(config.blocks, pair_capacity=_round8(2 * config.blocks.pair_capacity))
     if bits & Status.NEIGHBOUR_OVERFLOW:
         changes["neighbour_capacity"] = max(_round8(1.2 * int(state.nbrs.max_count)), config.neighbour_capacity + 8)
     if bits & Status.CELL_OVERFLOW:

@@ -100,12 +100,30 @@ def _advance_blocks(state: State, params: Params, config: Config) -> State:
     return state.replace(blocks=B, status=state.status | status)
 
 
-def _couple_after_fluid(state: State, params: Params, config: Config) -> State:
+def _place_block_particles(state: State, config: Config) -> State:
+    """Move the particles carried by blocks to the blocks' poses (boundary-particle coupling)."""
+    if config.coupling != Coupling.BOUNDARY_PARTICLES:
+        return state
+    from .coupling import boundary_particles
+
+    return state.replace(particles=boundary_particles.place(state.particles, state.blocks, config))
+
+
+def _fluid_load(state: State, params: Params, config: Config, *, kick: bool) -> State:
+    """The fluid's load on the blocks for the current particles; with ``kick`` the penalty
+    coupling also kicks the fluid by dt times its acceleration (in a step, not at priming)."""
+    if config.coupling == Coupling.BOUNDARY_PARTICLES:
+        from .coupling import boundary_particles
+
+        return state.replace(coupling=boundary_particles.load(state.particles, state.nbrs, state.blocks, params,
+                                                              config))
     if config.coupling == Coupling.PENALTY:
         from .coupling import penalty
 
-        P, load = penalty.apply(state.particles, state.blocks, params, config)
-        return state.replace(particles=P, coupling=load)
+        if kick:
+            P, load = penalty.apply(state.particles, state.blocks, params, config)
+            return state.replace(particles=P, coupling=load)
+        return state.replace(coupling=penalty.load(state.particles, state.blocks, params, config))
     return state
 
 
@@ -113,19 +131,10 @@ def advance(state: State, params: Params, config: Config) -> State:
     """One time step with the current neighbour list (no rebuild)."""
     if config.has_blocks:
         state = _advance_blocks(state, params, config)
-    if config.coupling == Coupling.BOUNDARY_PARTICLES:
-        from .coupling import boundary_particles
-
-        state = state.replace(particles=boundary_particles.place(state.particles, state.blocks, config))
+    state = _place_block_particles(state, config)
     if config.n_fluid > 0:
         P = _fluid(config).advance(state.particles, state.nbrs, params, config)
-        state = state.replace(particles=P)
-        if config.coupling == Coupling.BOUNDARY_PARTICLES:
-            from .coupling import boundary_particles
-
-            state = state.replace(coupling=boundary_particles.load(state.particles, state.nbrs, state.blocks,
-                                                                    params, config))
-        state = _couple_after_fluid(state, params, config)
+        state = _fluid_load(state.replace(particles=P), params, config, kick=True)
     state = state.replace(step=state.step + 1)
     return state.replace(status=state.status | check(state, params, config))
 
@@ -133,23 +142,10 @@ def advance(state: State, params: Params, config: Config) -> State:
 def prime(state: State, params: Params, config: Config) -> State:
     """Rebuild the list and fill accelerations / density rates (and the fluid load on the blocks)
     for the initial positions."""
-    if config.coupling == Coupling.BOUNDARY_PARTICLES:
-        from .coupling import boundary_particles
-
-        state = state.replace(particles=boundary_particles.place(state.particles, state.blocks, config))
-    state = refresh(state, config)
+    state = refresh(_place_block_particles(state, config), config)
     if config.n_fluid > 0:
         P = _fluid(config).prime(state.particles, state.nbrs, params, config)
-        state = state.replace(particles=P)
-        if config.coupling == Coupling.BOUNDARY_PARTICLES:
-            from .coupling import boundary_particles
-
-            state = state.replace(coupling=boundary_particles.load(state.particles, state.nbrs, state.blocks,
-                                                                    params, config))
-        if config.coupling == Coupling.PENALTY:
-            from .coupling import penalty
-
-            state = state.replace(coupling=penalty.load(state.particles, state.blocks, params, config))
+        state = _fluid_load(state.replace(particles=P), params, config, kick=False)
     return state
 
 

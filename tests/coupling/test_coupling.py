@@ -12,7 +12,7 @@ import pytest
 import rockjax as rj
 from rockjax import Coupling
 from rockjax.coupling import boundary_particles, penalty
-from rockjax.coupling.penalty import quat_matrix
+from rockjax.blocks.rotation import quat_matrix
 from rockjax.scenes.coupled import block_drop
 
 

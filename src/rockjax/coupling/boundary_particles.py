@@ -20,7 +20,8 @@ import jax.numpy as jnp
 from ..sph import wcsph
 from ..sph.neighbours import pairs
 from ..types import Config, CouplingState, Kind, NeighbourList, Params, Particles
-from .penalty import coupled_blocks, quat_matrix
+from ..blocks.rotation import quat_matrix
+from .penalty import coupled_blocks
 
 __all__ = ["place", "load"]
 

@@ -21,27 +21,17 @@ prescribed) couple; fixed geometry is met by the fluid as wall particles.
 
 from __future__ import annotations
 
-import jax
 import jax.numpy as jnp
 
+from ..blocks.rotation import quat_matrix
 from ..types import Config, CouplingState, Kind, Params, Particles
 
-__all__ = ["accelerations", "apply", "load", "quat_matrix", "coupled_blocks"]
+__all__ = ["accelerations", "apply", "load", "coupled_blocks"]
 
 
 def coupled_blocks(config: Config) -> tuple[int, ...]:
     """Indices of the blocks that exchange forces with the water (those that are not FIXED)."""
     return tuple(i for i, m in enumerate(config.blocks.motion) if getattr(m, "name", str(m)) != "FIXED")
-
-
-def quat_matrix(q):
-    """Rotation matrices [..., 3, 3] (body -> world) of unit quaternions q = (w, x, y, z) [..., 4]."""
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return jnp.stack([
-        jnp.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        jnp.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        jnp.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)
 
 
 def accelerations(P: Particles, blocks, params: Params, config: Config):

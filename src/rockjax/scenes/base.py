@@ -23,7 +23,7 @@ from ..types import (
 
 __all__ = [
     "Scene", "lattice", "tank_walls", "water_params", "stable_dt", "check_params", "make_state",
-    "fluid_scene", "GRAVITY", "empty_neighbours",
+    "fluid_scene", "particle_layout", "GRAVITY", "empty_neighbours",
 ]
 
 GRAVITY = 9.81
@@ -179,13 +179,14 @@ def _capacities(h_factor: float, list_radius_dx: float, run_length: int) -> tupl
     return k, c
 
 
-def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domain_lo, domain_hi,
-                periodic, surface_z: float | None, c0: float, scheme: Scheme, kernel: KernelKind,
-                viscosity: Viscosity, wall_model: WallModel, density_diffusion: DensityDiffusion,
-                h_factor: float, alpha: float, nu: float, delta: float, skin_factor: float,
-                rebuild_every: int, cfl: float, meta: dict) -> Scene:
-    """Assemble a fluid-only scene from host point sets (used by the built-in builders)."""
-    params = water_params(dx=dx, c0=c0, h_factor=h_factor, alpha=alpha, nu=nu, delta=delta)
+def particle_layout(*, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domain_lo, domain_hi, periodic,
+                    surface_z: float | None, c0: float, scheme: Scheme, h_factor: float, skin_factor: float) -> dict:
+    """Host arrays and static sizes for water + wall particles at spacing ``dx`` [m].
+
+    Returns a dict: ``grid``, ``cutoff`` and ``skin`` [m], ``neighbour_capacity`` and
+    ``cell_capacity``, and the particle arrays ``x`` [N, 3], ``kind``, ``vol`` (dx^3) and ``rho``
+    (hydrostatic below ``surface_z`` for WCSPH, else rho0).
+    """
     cutoff = SUPPORT_FACTOR * h_factor * dx
     skin = skin_factor * dx
     grid = GridSpec.covering(domain_lo, domain_hi, min_cell=cutoff + skin, periodic=periodic)
@@ -198,6 +199,22 @@ def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray
         rho = np.asarray(tait_density(1000.0 * GRAVITY * depth, 1000.0, c0, 7.0))
     run_length = 1 if (periodic[0] or grid.shape[0] < 3) else 3
     k, cell_cap = _capacities(h_factor, (cutoff + skin) / dx, run_length)
+    return dict(grid=grid, cutoff=cutoff, skin=skin, neighbour_capacity=k, cell_capacity=cell_cap, x=x, kind=kind,
+                vol=vol, rho=rho)
+
+
+def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domain_lo, domain_hi,
+                periodic, surface_z: float | None, c0: float, scheme: Scheme, kernel: KernelKind,
+                viscosity: Viscosity, wall_model: WallModel, density_diffusion: DensityDiffusion,
+                h_factor: float, alpha: float, nu: float, delta: float, skin_factor: float,
+                rebuild_every: int, cfl: float, meta: dict) -> Scene:
+    """Assemble a fluid-only scene from host point sets (used by the built-in builders)."""
+    params = water_params(dx=dx, c0=c0, h_factor=h_factor, alpha=alpha, nu=nu, delta=delta)
+    L = particle_layout(dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=domain_lo, domain_hi=domain_hi,
+                        periodic=periodic, surface_z=surface_z, c0=c0, scheme=scheme, h_factor=h_factor,
+                        skin_factor=skin_factor)
+    grid, cutoff, skin, k, cell_cap, x, kind, vol, rho = (L[n] for n in (
+        "grid", "cutoff", "skin", "neighbour_capacity", "cell_capacity", "x", "kind", "vol", "rho"))
     dt = stable_dt(params, scheme=scheme, viscosity=viscosity, cfl=cfl)
     config = Config(
         n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,

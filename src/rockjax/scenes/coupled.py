@@ -18,13 +18,12 @@ from typing import Sequence
 import jax.numpy as jnp
 import numpy as np
 
-from ..sph.eos import tait_density
 from ..sph.kernels import SUPPORT_FACTOR
 from ..types import (
-    Config, Coupling, CouplingParams, DensityDiffusion, GridSpec, Kind, KernelKind, Scheme, State, Viscosity,
+    Config, Coupling, CouplingParams, DensityDiffusion, KernelKind, Scheme, State, Viscosity,
     WallModel, float_dtype,
 )
-from .base import GRAVITY, Scene, _capacities, _positive, lattice, make_state, stable_dt, water_params
+from .base import GRAVITY, Scene, _positive, lattice, make_state, particle_layout, stable_dt, water_params
 from .shapes import clearance, fill, plane, shell
 
 __all__ = ["coupled_scene", "sliding_wedge", "floating_box", "block_drop", "piston_wavemaker", "block_on_incline",
@@ -126,7 +125,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     body = np.full(len(wall_x), -1)
     x_body = np.zeros((len(wall_x), 3))
     if coupling == Coupling.BOUNDARY_PARTICLES:
-        from ..coupling.penalty import quat_matrix
+        from ..blocks.rotation import quat_matrix
 
         R = np.asarray(quat_matrix(jnp.asarray(bstate.q)))
         X = np.asarray(bstate.x)
@@ -139,23 +138,13 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         wall_x = np.concatenate([wall_x] + extra)
         body = np.concatenate([body] + bodies)
         x_body = np.concatenate([x_body] + xb)
-    else:
-        params = params.replace(coupling=coupling_params(dx=dx, c0=c0)) if coupling == Coupling.PENALTY else params
-    if coupling == Coupling.BOUNDARY_PARTICLES:
+    if coupling != Coupling.NONE:
         params = params.replace(coupling=coupling_params(dx=dx, c0=c0))
-
-    cutoff = SUPPORT_FACTOR * h_factor * dx
-    skin = skin_factor * dx
-    grid = GridSpec.covering(domain_lo, domain_hi, min_cell=cutoff + skin, periodic=periodic)
-    x = np.concatenate([fluid_x, wall_x])
-    kind = np.concatenate([np.full(len(fluid_x), Kind.FLUID), np.full(len(wall_x), Kind.WALL)]).astype(np.int32)
-    vol = np.full(len(x), dx**3)
-    rho = np.full(len(x), 1000.0)
-    if still_level is not None and scheme == Scheme.WCSPH:
-        depth = np.clip(still_level - x[:, 2], 0.0, None)
-        rho = np.asarray(tait_density(1000.0 * GRAVITY * depth, 1000.0, c0, 7.0))
-    run_length = 1 if (periodic[0] or grid.shape[0] < 3) else 3
-    k, cell_cap = _capacities(h_factor, (cutoff + skin) / dx, run_length)
+    L = particle_layout(dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=domain_lo, domain_hi=domain_hi,
+                        periodic=periodic, surface_z=still_level, c0=c0, scheme=scheme, h_factor=h_factor,
+                        skin_factor=skin_factor)
+    grid, cutoff, skin, k, cell_cap, x, kind, vol, rho = (L[n] for n in (
+        "grid", "cutoff", "skin", "neighbour_capacity", "cell_capacity", "x", "kind", "vol", "rho"))
     dt = stable_dt(params, scheme=scheme, viscosity=Viscosity.ARTIFICIAL, cfl=cfl)
     dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
     if dt_blocks < dt and "normal_stiffness" not in (block_kwargs or {}):
