@@ -187,13 +187,15 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
     def record(s: State):
         t = float(s.step) * config.dt
         times.append(t)
+        obs = None
         if obs_fn is not None:
-            observed.append(jax.device_get(obs_fn(s, params)))
+            obs = jax.device_get(obs_fn(s, params))
+            observed.append(obs)
         frame = host_frame(s)
         if keep_frames:
             frames.append(frame)
         if writer is not None:
-            writer.append(t, frame, int(s.status))
+            writer.append(t, frame, int(s.status), observed=obs)
 
     record(state)
     bar = None

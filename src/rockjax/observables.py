@@ -173,7 +173,9 @@ def scene_observer(meta: dict, *, band: float | None = None, temperature: float 
     """``observe(state, params, config) -> dict`` for ``simulate(observe=...)`` from a scene's meta:
     ``gauges`` [M] m (free-surface elevation at ``meta["gauges"]``), ``runup`` (hard) and
     ``smooth_runup`` [m] on ``meta["runup_slope"]`` (band 2 dx, temperature dx/4 by default),
-    and the block poses when the scene has blocks. Keys absent from meta are skipped."""
+    the block centroids ``block_x`` [B, 3] m when the scene has blocks, and the energy budget [J]:
+    ``fluid_kinetic``, ``fluid_potential``, ``fluid_elastic`` (``energies``), ``block_kinetic``,
+    ``block_potential`` (moving blocks). Keys absent from meta are skipped."""
     dx = float(meta.get("dx") or 0.0)
     still = float(meta.get("still_level", 0.0))
     band = 2.0 * dx if band is None else band
@@ -191,8 +193,13 @@ def scene_observer(meta: dict, *, band: float | None = None, temperature: float 
                       still_level=still, x_min=sl.get("x_min"))
             out["runup"] = runup(state, **kw)
             out["smooth_runup"] = smooth_runup(state, temperature=temperature, **kw)
+        if state.particles is not None and params.fluid is not None:
+            e = energies(state, params, config)
+            out.update(fluid_kinetic=e["kinetic"], fluid_potential=e["potential"], fluid_elastic=e["elastic"])
         if state.blocks is not None:
             out["block_x"] = state.blocks.x
+            e = block_energies(state, params, config)
+            out.update(block_kinetic=e["kinetic"], block_potential=e["potential"])
         return out
 
     return observe

@@ -13,6 +13,8 @@ Layout::
     /block_q         [F, B, 4] unit quaternions (w, x, y, z), body -> world
     /block_v, /block_omega  [F, B, 3] m/s, rad/s
     /blocks/...      static block geometry (body-frame vertices, faces) for viewers
+    /observed/NAME   [F, ...] what ``simulate(observe=...)`` recorded at each frame (gauges [F, M] m,
+                     runup, smooth_runup [F] m, energies [F] J, ...)
 
 Every per-frame array of ``driver.host_frame`` becomes one extendable dataset ``[F, ...]``.
 """
@@ -84,8 +86,9 @@ class Writer:
                     gb.create_dataset(name, data=np.asarray(value))
         self._names: list[str] | None = None
 
-    def append(self, t: float, frame: dict, status: int = 0) -> None:
-        """Add one frame (``frame`` as from ``driver.host_frame``)."""
+    def append(self, t: float, frame: dict, status: int = 0, observed: dict | None = None) -> None:
+        """Add one frame (``frame`` as from ``driver.host_frame``; ``observed`` as from an observer)."""
+        frame = dict(frame, **{f"observed/{k}": v for k, v in (observed or {}).items()})
         if self._names is None:
             if "kind" in frame:
                 self.f.create_dataset("kind", data=np.asarray(frame["kind"], np.int32))
@@ -115,7 +118,7 @@ class Run:
 
     Particle fields (``kind``, ``x``, ``v``, ``rho``, ``p``) are None in a blocks-only run;
     ``frames`` holds every per-frame dataset by name (including ``block_x``, ``block_q``, ...);
-    ``blocks`` the static block geometry, or None.
+    ``blocks`` the static block geometry, or None; ``observed`` the observer's records by name, or None.
     """
 
     scene: str
@@ -131,6 +134,7 @@ class Run:
     rho: np.ndarray | None = None
     p: np.ndarray | None = None
     blocks: dict | None = None
+    observed: dict | None = None
 
 
 def _group(g) -> dict:
@@ -142,9 +146,11 @@ def _group(g) -> dict:
 def read(path: str) -> Run:
     """Read a whole run written by ``Writer``."""
     with h5py.File(path, "r") as f:
-        skip = {"params", "blocks", "time", "status", "kind"}
+        skip = {"params", "blocks", "time", "status", "kind", "observed"}
         frames = {k: f[k][()] for k in f.keys() if k not in skip}
+        observed = _group(f["observed"]) if "observed" in f else None
         return Run(scene=str(f.attrs["scene"]), config=json.loads(f.attrs["config"]), meta=json.loads(f.attrs["meta"]),
                    params=_group(f["params"]), time=f["time"][()], status=f["status"][()], frames=frames,
                    kind=f["kind"][()] if "kind" in f else None, x=frames.get("x"), v=frames.get("v"),
-                   rho=frames.get("rho"), p=frames.get("p"), blocks=_group(f["blocks"]) if "blocks" in f else None)
+                   rho=frames.get("rho"), p=frames.get("p"), blocks=_group(f["blocks"]) if "blocks" in f else None,
+                   observed=observed)
