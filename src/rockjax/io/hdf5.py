@@ -15,6 +15,7 @@ Layout::
     /blocks/...      static block geometry (body-frame vertices, faces) for viewers
     /observed/NAME   [F, ...] what ``simulate(observe=...)`` recorded at each frame (gauges [F, M] m,
                      runup, smooth_runup [F] m, energies [F] J, ...)
+    /xdmf/...        views for the XDMF sidecars, added by ``io.xdmf.write_xdmf`` (see there)
 
 Every per-frame array of ``driver.host_frame`` becomes one extendable dataset ``[F, ...]``.
 """
@@ -146,8 +147,8 @@ def _group(g) -> dict:
 def read(path: str) -> Run:
     """Read a whole run written by ``Writer``."""
     with h5py.File(path, "r") as f:
-        skip = {"params", "blocks", "time", "status", "kind", "observed"}
-        frames = {k: f[k][()] for k in f.keys() if k not in skip}
+        skip = {"params", "blocks", "time", "status", "kind", "observed", "xdmf"}
+        frames = {k: f[k][()] for k in f.keys() if k not in skip and isinstance(f[k], h5py.Dataset)}
         observed = _group(f["observed"]) if "observed" in f else None
         return Run(scene=str(f.attrs["scene"]), config=json.loads(f.attrs["config"]), meta=json.loads(f.attrs["meta"]),
                    params=_group(f["params"]), time=f["time"][()], status=f["status"][()], frames=frames,
