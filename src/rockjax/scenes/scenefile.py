@@ -1,0 +1,964 @@
+"""Scenes as files: a TOML scene description -> ``Scene`` plus run options (``t_end``, ``frame_dt``, ``out``).
+
+This module owns the scene-file format, its validation (every refusal is a ``ValueError`` that
+names the file, the line, the key and what to change) and its translation onto the scene
+builders (``base.fluid_scene``, ``coupled.coupled_scene`` and the built-in scenes). It builds on
+the host only; nothing here is traced.
+
+Entry points: :func:`load` (``SceneFile``: scene + run options), :func:`load_scene` (the scene),
+:func:`load_builtin` (a built-in scene by name with validated options, as the CLI uses).
+
+Units: SI throughout -- metres, seconds, kg/m^3, degrees for angles (keys end in ``_deg``),
+N/m for contact stiffnesses, Pa for ``penalty_modulus``; z points up, gravity is -9.81 m/s^2 in z.
+
+Form (a): a built-in scene with options
+---------------------------------------
+::
+
+    [scene]
+    builtin = "sliding_wedge"          # one of `rockjax list`
+    [scene.options]                    # keyword arguments of that builder (see its docstring)
+    dx = 0.02
+    block_density = 2500.0
+    coupling = "penalty"               # enums as their string values
+    [run]
+    t_end = 2.0                        # s
+    [output]
+    frame_dt = 0.02                    # s
+    out = "wedge.h5"                   # relative to the working directory
+
+Option names are checked against the builder's signature (an unknown one is refused with the
+accepted list), and values against its annotations (numbers, booleans, enum strings, lists for
+tuple options).
+
+Form (b): a general scene
+------------------------
+::
+
+    [scene]
+    name = "box_off_ramp"
+    still_level = 0.3                  # m; default: the highest water `level` (or water box top)
+
+    [domain]                           # the tank: walls on its faces, none on periodic axes
+    lo = [0.0, 0.0, 0.0]               # m; sizes are rounded to whole multiples of dx
+    hi = [2.0, 0.4, 0.8]
+    periodic = [false, false, false]
+    open_top = true                    # no wall on top; particles above hi stop the run
+
+    [[water]]                          # union of regions; each: box (default the domain) and
+    lo = [0.6, 0.0, 0.0]               # optional `level` (z <= level) and extra planes that
+    hi = [2.0, 0.4, 0.8]               # keep n . (x - point) <= 0 (normal points out of the water)
+    level = 0.3
+    planes = [{ point = [0.6, 0, 0.3], normal = [-1, 0, 1] }]
+
+    [[fixed]]                          # fixed geometry: wall particles, and a FIXED block where
+    type = "plane"                     # the scene has moving blocks (convex shapes only)
+    point = [0.6, 0.0, 0.3]            # plane: the solid is behind it, `normal` points to the water
+    normal = [1.0, 0.0, 1.0]
+    # type = "box": lo, hi.   type = "mesh": file (STL/OBJ/PLY/OFF, relative to this file),
+    # scale (file units -> m), offset [m], convexity_tol; `block = false` keeps it walls only.
+
+    [[block]]                          # a rock block
+    shape = "box"                      # box (size = lx, ly, lz) | wedge (size = length, width,
+    size = [0.2, 0.2, 0.1]             # height; right angle at its origin, legs along +x, +z)
+    position = [0.3, 0.2, 0.5]         # | mesh (file, hull, scale, convexity_tol); centroid, m
+    rotation_axis = [0.0, 1.0, 0.0]    # rotation about the centroid (right hand), degrees
+    rotation_deg = 45.0
+    velocity = [0.0, 0.0, 0.0]         # m/s
+    density = 2500.0                   # kg/m^3
+    motion = "dynamic"                 # or "fixed"
+
+    [materials]                        # block contacts (blocks.make_blocks)
+    friction_angle_deg = 20.0          # [0, 90)
+    cohesion = 0.0                     # N per contact point
+    # normal_stiffness, shear_stiffness [N/m], penalty_modulus [Pa], damping_ratio [-]
+
+    [sph]                              # the water (needed with [[water]])
+    dx = 0.02                          # particle spacing, m
+    scheme = "wcsph"                   # or "seed"; c0 [m/s] (default 10 x the largest expected
+    # speed), h_factor, alpha, nu [m^2/s], delta, skin_factor, rebuild_every, cfl; kernel,
+    # viscosity, wall_model, density_diffusion (water-only scenes; with blocks the defaults hold)
+
+    [coupling]                         # water <-> moving blocks
+    method = "penalty"                 # or "boundary_particles"; stiffness [1/s^2],
+                                       # damping [1/s], interaction_distance [m] (penalty, seed Eq 22)
+    [[gauge]]                          # free-surface elevation at (x, y)
+    name = "near"
+    xy = [1.0, 0.2]
+    bottom_z = 0.0                     # m; default the domain floor
+    [runup]                            # run-up on a slope: a point on it and its outward normal
+    point = [2.0, 0.2, 0.0]
+    normal = [-0.5, 0.0, 0.866]
+    x_min = 1.8                        # only water beyond this x counts
+    [run]
+    t_end = 2.0
+    [output]
+    frame_dt = 0.02
+    out = "run.h5"
+
+Without ``[[water]]`` the scene is blocks only (no SPH is traced). Without moving blocks it is
+water only (no block code is traced; fixed geometry is wall particles). Water, walls and fixed
+geometry are sampled on one cubic lattice (cell centres ``domain.lo + (i + 1/2) dx``), as the
+built-in scenes are: water where the clearance to every wall is > 0.3 dx, ``ceil(2 h_factor)``
+wall layers behind every wall face, no water within dx/4 of a moving block.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import inspect
+import math
+import os
+import re
+import typing
+import warnings
+from typing import Any, NoReturn
+
+import numpy as np
+
+from ..sph.kernels import SUPPORT_FACTOR
+from ..types import Coupling, DensityDiffusion, KernelKind, Scheme, Viscosity, WallModel
+from .base import GRAVITY, Scene, fluid_scene, lattice
+
+try:  # Python >= 3.11
+    import tomllib as _toml
+except ModuleNotFoundError:  # pragma: no cover - Python 3.10 with tomli installed
+    try:
+        import tomli as _toml  # type: ignore[no-redef]
+    except ModuleNotFoundError:
+        _toml = None
+
+__all__ = ["RunOptions", "SceneFile", "load", "load_scene", "load_builtin", "builtin_options"]
+
+
+@dataclasses.dataclass(frozen=True)
+class RunOptions:
+    """How to run a scene file's scene: ``t_end`` [s], ``frame_dt`` [s], ``out`` (HDF5 path); None: unset."""
+
+    t_end: float | None = None
+    frame_dt: float | None = None
+    out: str | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class SceneFile:
+    """A loaded scene file: the ``scene``, its ``run`` options and the ``source`` (path or ``<text>``)."""
+
+    scene: Scene
+    run: RunOptions
+    source: str
+
+
+# ----------------------------------------------------------------------------------------------
+# line numbers: tomllib gives none for keys, so scan the text for each key within its table
+# ----------------------------------------------------------------------------------------------
+
+_STRING = re.compile(r'"(?:[^"\\]|\\.)*"|\'[^\']*\'')
+
+
+def _code(line: str) -> str:
+    """The line with string contents emptied and the comment removed."""
+    return _STRING.sub('""', line).split("#", 1)[0]
+
+
+def _parts(dotted: str) -> list[str]:
+    return [p.strip().strip('"').strip("'") for p in dotted.split(".")]
+
+
+class _LineIndex:
+    """Where each table and key is defined: ``("block", 2, "density") -> line`` (1-based)."""
+
+    def __init__(self, text: str):
+        self.index: dict[tuple, int] = {}
+        counts: dict[tuple, int] = {}
+        table: tuple = ()
+        depth = 0
+        for no, raw in enumerate(text.splitlines(), 1):
+            line = _code(raw)
+            if depth > 0:  # inside a multi-line array or inline table
+                depth += line.count("[") + line.count("{") - line.count("]") - line.count("}")
+                continue
+            m = re.match(r"\s*\[\[(.+)\]\]\s*$", line)
+            if m:
+                parts = _parts(m.group(1))
+                path = self._resolve(parts, counts)
+                counts[path] = counts.get(path, -1) + 1
+                table = path + (counts[path],)
+                self.index.setdefault(table, no)
+                self.index.setdefault(path, no)
+                continue
+            m = re.match(r"\s*\[(.+)\]\s*$", line)
+            if m:
+                table = self._resolve(_parts(m.group(1)), counts)
+                self.index.setdefault(table, no)
+                continue
+            m = re.match(r"\s*([A-Za-z0-9_\-.\"' ]+?)\s*=(.*)$", line)
+            if m:
+                path = table + tuple(_parts(m.group(1)))
+                self.index.setdefault(path, no)
+                for k in range(len(table) + 1, len(path)):
+                    self.index.setdefault(path[:k], no)
+                v = m.group(2)
+                depth = v.count("[") + v.count("{") - v.count("]") - v.count("}")
+
+    @staticmethod
+    def _resolve(parts, counts) -> tuple:
+        out: tuple = ()
+        for p in parts:
+            out = out + (p,)
+            if out in counts:  # a table inside the current element of an array of tables
+                out = out + (counts[out],)
+        return out
+
+    def line(self, path: tuple) -> int | None:
+        for k in range(len(path), 0, -1):
+            if tuple(path[:k]) in self.index:
+                return self.index[tuple(path[:k])]
+        return None
+
+
+class _Ctx:
+    """Error reporting for one scene file: ``fail(path, message)`` raises with file, line and key."""
+
+    def __init__(self, source: str, text: str, base_dir: str):
+        self.source = source
+        self.lines = _LineIndex(text)
+        self.base_dir = base_dir
+
+    def where(self, path: tuple) -> str:
+        n = self.lines.line(path)
+        return f"{self.source} line {n}" if n else self.source
+
+    def fail(self, path: tuple, message: str) -> NoReturn:
+        raise ValueError(f"{self.where(path)}: key `{_dotted(path)}`{_element(path)}: {message}")
+
+    def fail_table(self, path: tuple, message: str) -> NoReturn:
+        raise ValueError(f"{self.where(path)}: table `[{_dotted(path)}]`{_element(path)}: {message}")
+
+
+def _dotted(path: tuple) -> str:
+    return ".".join(str(p) for p in path if not isinstance(p, int))
+
+
+def _element(path: tuple) -> str:
+    ints = [(path[i - 1], p) for i, p in enumerate(path) if isinstance(p, int) and i > 0]
+    if not ints or not isinstance(ints[0][0], str):
+        return ""
+    name, idx = ints[0]
+    return f" ([[{name}]] #{idx + 1})"
+
+
+# ----------------------------------------------------------------------------------------------
+# key schema
+# ----------------------------------------------------------------------------------------------
+
+_REQUIRED = object()
+
+
+@dataclasses.dataclass(frozen=True)
+class _Key:
+    kind: str  # float int bool str vec2 vec3 bool3 choice planes table
+    default: Any = None
+    unit: str = ""
+    lo: float | None = None
+    lo_open: bool = False
+    hi: float | None = None
+    hi_open: bool = False
+    choices: tuple = ()
+    hint: str = ""
+
+
+def _num(kind="float", default=None, unit="", lo=None, lo_open=False, hi=None, hi_open=False, hint=""):
+    return _Key(kind, default, unit, lo, lo_open, hi, hi_open, (), hint)
+
+
+def _choice(choices, default=None):
+    return _Key("choice", default, choices=tuple(choices))
+
+
+def _enum_values(e) -> tuple:
+    return tuple(m.value for m in e)
+
+
+_POS = dict(lo=0.0, lo_open=True)
+_NONNEG = dict(lo=0.0)
+
+_SCHEMA: dict[str, dict[str, _Key]] = {
+    "scene": {"name": _Key("str"), "builtin": _Key("str"), "options": _Key("table"), "description": _Key("str"),
+              "still_level": _num(unit="m")},
+    "domain": {"lo": _Key("vec3", _REQUIRED, "m"), "hi": _Key("vec3", _REQUIRED, "m"),
+               "periodic": _Key("bool3", (False, False, False)), "open_top": _Key("bool", True)},
+    "water": {"lo": _Key("vec3", None, "m"), "hi": _Key("vec3", None, "m"), "level": _num(unit="m"),
+              "planes": _Key("planes", ())},
+    "fixed": {"type": _choice(("box", "plane", "mesh"), _REQUIRED), "name": _Key("str"),
+              "lo": _Key("vec3", None, "m"), "hi": _Key("vec3", None, "m"), "point": _Key("vec3", None, "m"),
+              "normal": _Key("vec3", None), "file": _Key("str"), "scale": _num(default=1.0, **_POS),
+              "offset": _Key("vec3", (0.0, 0.0, 0.0), "m"), "convexity_tol": _num(default=1e-4, lo=0.0, hi=0.5),
+              "block": _Key("bool", True)},
+    "block": {"shape": _choice(("box", "wedge", "mesh"), _REQUIRED), "name": _Key("str"),
+              "size": _Key("vec3", None, "m", lo=0.0, lo_open=True), "file": _Key("str"), "hull": _Key("bool", False),
+              "scale": _num(default=1.0, **_POS), "convexity_tol": _num(default=1e-4, lo=0.0, hi=0.5),
+              "position": _Key("vec3", None, "m"), "rotation_axis": _Key("vec3", (0.0, 0.0, 1.0)),
+              "rotation_deg": _num(default=0.0, unit="degrees"), "velocity": _Key("vec3", (0.0, 0.0, 0.0), "m/s"),
+              "density": _num(default=2650.0, unit="kg/m^3", **_POS,
+                              hint="rock is ~2000-3000 kg/m^3"),
+              "motion": _choice(("dynamic", "fixed"), "dynamic")},
+    "materials": {"friction_angle_deg": _num(default=30.0, unit="degrees", lo=0.0, hi=90.0, hi_open=True),
+                  "cohesion": _num(default=0.0, unit="N", **_NONNEG),
+                  "normal_stiffness": _num(unit="N/m", **_POS), "shear_stiffness": _num(unit="N/m", **_POS),
+                  "penalty_modulus": _num(default=1e9, unit="Pa", **_POS),
+                  "damping_ratio": _num(default=0.2, **_NONNEG)},
+    "gauge": {"name": _Key("str"), "xy": _Key("vec2", _REQUIRED, "m"), "bottom_z": _num(unit="m")},
+    "runup": {"point": _Key("vec3", _REQUIRED, "m"), "normal": _Key("vec3", _REQUIRED), "x_min": _num(unit="m")},
+    "output": {"frame_dt": _num(unit="s", **_POS), "out": _Key("str")},
+    "run": {"t_end": _num(unit="s", **_POS)},
+    "sph": {"dx": _num(unit="m", **_POS, hint="the particle spacing, e.g. dx = 0.02"),
+            "scheme": _choice(_enum_values(Scheme), "wcsph"), "c0": _num(unit="m/s", **_POS),
+            "h_factor": _num(default=1.3, lo=0.5, hi=3.0), "alpha": _num(**_NONNEG),
+            "nu": _num(unit="m^2/s", **_NONNEG), "delta": _num(default=0.1, **_NONNEG),
+            "skin_factor": _num(default=0.6, **_NONNEG), "rebuild_every": _num("int", 8, lo=1),
+            "cfl": _num(default=0.25, lo=0.0, lo_open=True, hi=1.0),
+            "kernel": _choice(_enum_values(KernelKind), "wendland_c2"),
+            "viscosity": _choice(_enum_values(Viscosity), "artificial"),
+            "wall_model": _choice(_enum_values(WallModel), "adami"),
+            "density_diffusion": _choice(_enum_values(DensityDiffusion), "fourtakas")},
+    "coupling": {"method": _choice(("penalty", "boundary_particles"), "penalty"),
+                 "stiffness": _num(unit="1/s^2", **_POS), "damping": _num(unit="1/s", **_NONNEG),
+                 "interaction_distance": _num(unit="m", **_POS)},
+}
+_ARRAYS = ("water", "fixed", "block", "gauge")
+_FIXED_KEYS = {"box": {"lo", "hi"}, "plane": {"point", "normal"}, "mesh": {"file", "scale", "offset", "convexity_tol"}}
+_BLOCK_KEYS = {"box": {"size"}, "wedge": {"size"}, "mesh": {"file", "hull", "scale", "convexity_tol"}}
+_BUILTIN_TABLES = ("scene", "run", "output")
+
+
+def _typename(v) -> str:
+    return {bool: "boolean", int: "integer", float: "number", str: "string", list: "array",
+            dict: "table"}.get(type(v), type(v).__name__)
+
+
+def _range_text(k: _Key) -> str:
+    parts = []
+    if k.lo is not None:
+        parts.append(f"{'>' if k.lo_open else '>='} {k.lo:g}")
+    if k.hi is not None:
+        parts.append(f"{'<' if k.hi_open else '<='} {k.hi:g}")
+    return " and ".join(parts)
+
+
+def _in_range(k: _Key, x: float) -> bool:
+    if k.lo is not None and (x <= k.lo if k.lo_open else x < k.lo):
+        return False
+    if k.hi is not None and (x >= k.hi if k.hi_open else x > k.hi):
+        return False
+    return True
+
+
+def _number(ctx: _Ctx, path, v, k: _Key, *, integer=False) -> float:
+    unit = f" ({k.unit})" if k.unit else ""
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or (integer and not isinstance(v, int)):
+        what = "an integer" if integer else "a number"
+        ctx.fail(path, f"expected {what}{unit}, got {_typename(v)} {v!r}; write e.g. `{path[-1]} = "
+                       f"{k.default if isinstance(k.default, (int, float)) and not isinstance(k.default, bool) else 1.0}`")
+    if not math.isfinite(v):
+        ctx.fail(path, f"must be finite{unit} (got {v})")
+    if not _in_range(k, v):
+        hint = f"; {k.hint}" if k.hint else ""
+        ctx.fail(path, f"must be {_range_text(k)}{' ' + k.unit if k.unit else ''} (got {v}){hint}")
+    return int(v) if integer else float(v)
+
+
+def _vector(ctx: _Ctx, path, v, k: _Key, n: int) -> tuple:
+    unit = f" in {k.unit}" if k.unit else ""
+    if not isinstance(v, list) or len(v) != n:
+        ctx.fail(path, f"expected an array of {n} numbers{unit}, got {_typename(v)} {v!r}")
+    out = []
+    for x in v:
+        if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+            ctx.fail(path, f"expected an array of {n} finite numbers{unit}, got {v!r}")
+        if not _in_range(k, x):
+            ctx.fail(path, f"every component must be {_range_text(k)}{' ' + k.unit if k.unit else ''} (got {v!r})")
+        out.append(float(x))
+    return tuple(out)
+
+
+def _value(ctx: _Ctx, path: tuple, v, k: _Key):
+    if k.kind == "float":
+        return _number(ctx, path, v, k)
+    if k.kind == "int":
+        return _number(ctx, path, v, k, integer=True)
+    if k.kind == "bool":
+        if not isinstance(v, bool):
+            ctx.fail(path, f"expected true or false, got {_typename(v)} {v!r}")
+        return v
+    if k.kind == "str":
+        if not isinstance(v, str):
+            ctx.fail(path, f"expected a string, got {_typename(v)} {v!r}; quote it: `{path[-1]} = \"...\"`")
+        return v
+    if k.kind == "choice":
+        if not isinstance(v, str) or v not in k.choices:
+            ctx.fail(path, f"must be one of {', '.join(repr(c) for c in k.choices)} (got {v!r})")
+        return v
+    if k.kind == "vec3":
+        return _vector(ctx, path, v, k, 3)
+    if k.kind == "vec2":
+        return _vector(ctx, path, v, k, 2)
+    if k.kind == "bool3":
+        if not isinstance(v, list) or len(v) != 3 or not all(isinstance(b, bool) for b in v):
+            ctx.fail(path, f"expected an array of 3 booleans (x, y, z), got {v!r}")
+        return tuple(v)
+    if k.kind == "table":
+        if not isinstance(v, dict):
+            ctx.fail(path, f"expected a table, got {_typename(v)} {v!r}")
+        return v
+    if k.kind == "planes":
+        if not isinstance(v, list):
+            ctx.fail(path, "expected an array of inline tables { point = [x, y, z], normal = [nx, ny, nz] }")
+        out = []
+        for i, p in enumerate(v):
+            if not isinstance(p, dict) or set(p) != {"point", "normal"}:
+                ctx.fail(path, f"plane #{i + 1} must be {{ point = [x, y, z], normal = [nx, ny, nz] }} (got {p!r})")
+            point = _vector(ctx, path, p["point"], _Key("vec3", unit="m"), 3)
+            normal = _vector(ctx, path, p["normal"], _Key("vec3"), 3)
+            if not np.linalg.norm(normal) > 0:
+                ctx.fail(path, f"plane #{i + 1}: normal must be a non-zero vector")
+            out.append((point, normal))
+        return tuple(out)
+    raise AssertionError(k.kind)  # pragma: no cover
+
+
+def _table(ctx: _Ctx, path: tuple, data, schema: dict[str, _Key]) -> dict:
+    """Check one table against its schema: unknown keys, types, ranges, required keys; fill defaults."""
+    if not isinstance(data, dict):
+        ctx.fail(path, f"expected a table (`[{_dotted(path)}]`), got {_typename(data)}")
+    for key in data:
+        if key not in schema:
+            ctx.fail(path + (key,), f"unknown key; accepted keys in [{_dotted(path)}]: {', '.join(schema)}")
+    out = {}
+    for key, k in schema.items():
+        if key in data:
+            out[key] = _value(ctx, path + (key,), data[key], k)
+        elif k.default is _REQUIRED:
+            ctx.fail_table(path, f"the key `{key}` is required")
+        else:
+            out[key] = k.default
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# loading
+# ----------------------------------------------------------------------------------------------
+
+
+def _read(path_or_text) -> tuple[str, str, str]:
+    """(source name, text, base directory for relative paths)."""
+    if isinstance(path_or_text, os.PathLike) or (
+            isinstance(path_or_text, str) and "\n" not in path_or_text and "=" not in path_or_text
+            and (path_or_text.endswith(".toml") or os.path.isfile(path_or_text))):
+        path = os.fspath(path_or_text)
+        if not os.path.isfile(path):
+            raise ValueError(f"scene file {path!r} does not exist")
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+        return path, text, os.path.dirname(os.path.abspath(path))
+    if not isinstance(path_or_text, str):
+        raise ValueError(f"load: expected a path or TOML text, got {type(path_or_text).__name__}")
+    return "<scene text>", path_or_text, os.getcwd()
+
+
+def _parse(source: str, text: str) -> dict:
+    if _toml is None:  # pragma: no cover
+        raise ValueError("reading scene files needs Python >= 3.11 (tomllib) or the `tomli` package")
+    try:
+        return _toml.loads(text)
+    except _toml.TOMLDecodeError as exc:
+        raise ValueError(f"{source}: not valid TOML: {exc}") from exc
+
+
+def load(path_or_text, *, dx: float | None = None, scheme: str | None = None,
+         coupling: str | None = None) -> SceneFile:
+    """Load a scene file (a path, or TOML text) and build its scene.
+
+    Args:
+        path_or_text: a ``.toml`` path (``str`` or ``os.PathLike``) or the TOML text itself.
+        dx: override the particle spacing [m] (``sph.dx``, or the builder's ``dx`` option).
+        scheme, coupling: override the SPH scheme / coupling method (string values).
+
+    Returns:
+        ``SceneFile(scene, run, source)``; ``scene.meta["scene_file"]`` holds the source.
+
+    Raises:
+        ValueError: ``"<file> line N: key `table.key`: what is wrong; what to change"``.
+    """
+    source, text, base = _read(path_or_text)
+    doc = _parse(source, text)
+    ctx = _Ctx(source, text, base)
+    scene_t = doc.get("scene", {})
+    if not isinstance(scene_t, dict):
+        ctx.fail(("scene",), "expected a table [scene]")
+    overrides = {k: v for k, v in (("dx", dx), ("scheme", scheme), ("coupling", coupling)) if v is not None}
+    if "builtin" in scene_t:
+        scene = _load_builtin_form(ctx, doc, overrides)
+    else:
+        scene = _load_general(ctx, doc, overrides)
+    run_t = _table(ctx, ("run",), doc.get("run", {}), _SCHEMA["run"])
+    out_t = _table(ctx, ("output",), doc.get("output", {}), _SCHEMA["output"])
+    scene = scene.replace(meta=dict(scene.meta, scene_file=source))
+    return SceneFile(scene=scene, run=RunOptions(t_end=run_t["t_end"], frame_dt=out_t["frame_dt"], out=out_t["out"]),
+                     source=source)
+
+
+def load_scene(path_or_text, *, dx: float | None = None, scheme: str | None = None,
+               coupling: str | None = None) -> Scene:
+    """The ``Scene`` of a scene file (see :func:`load`; run options are dropped)."""
+    return load(path_or_text, dx=dx, scheme=scheme, coupling=coupling).scene
+
+
+# ---- form (a): built-in scene + options --------------------------------------------------------
+
+
+def builtin_options(name: str) -> dict[str, Any]:
+    """The options of built-in scene ``name``: ``{option: default}`` (keyword arguments of its builder)."""
+    from . import BUILTIN
+
+    if name not in BUILTIN:
+        raise ValueError(f"unknown built-in scene {name!r}; one of: {', '.join(BUILTIN)}")
+    return {p.name: p.default for p in inspect.signature(BUILTIN[name]).parameters.values()}
+
+
+def _hint_types(hint) -> tuple:
+    if hint is None:
+        return ()
+    args = typing.get_args(hint)
+    return tuple(a for a in args if a is not type(None)) if args else (hint,)
+
+
+def _builtin_value(ctx: _Ctx, path: tuple, v, hint, default):
+    types = _hint_types(hint)
+    enum_cls = next((t for t in types if isinstance(t, type) and issubclass(t, enum.Enum)), None)
+    if enum_cls is None and isinstance(default, enum.Enum):
+        enum_cls = type(default)
+    if enum_cls is not None:
+        if isinstance(v, enum_cls):
+            return v
+        choices = _enum_values(enum_cls)
+        if not isinstance(v, str) or v not in choices:
+            ctx.fail(path, f"must be one of {', '.join(repr(c) for c in choices)} (got {v!r})")
+        return enum_cls(v)
+    if bool in types or isinstance(default, bool):
+        if not isinstance(v, bool):
+            ctx.fail(path, f"expected true or false, got {_typename(v)} {v!r}")
+        return v
+    if float in types or (isinstance(default, float) and not types):
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            ctx.fail(path, f"expected a number (SI units), got {_typename(v)} {v!r}")
+        return float(v)
+    if int in types or (isinstance(default, int) and not types):
+        if isinstance(v, bool) or not isinstance(v, int):
+            ctx.fail(path, f"expected an integer, got {_typename(v)} {v!r}")
+        return v
+    if dict in types:
+        if not isinstance(v, dict):
+            ctx.fail(path, f"expected a table, got {_typename(v)} {v!r}")
+        return v
+    if isinstance(default, tuple):
+        if not isinstance(v, list) or len(v) != len(default) or not all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+            ctx.fail(path, f"expected an array of {len(default)} numbers (like the default {list(default)}), got {v!r}")
+        return tuple(float(x) for x in v)
+    if isinstance(v, list):  # e.g. gauge_x = [0.3, 0.6]
+        return list(v)
+    return v
+
+
+def _builder_kwargs(ctx: _Ctx, name: str, options: dict, overrides: dict) -> dict:
+    from . import BUILTIN
+
+    builder = BUILTIN[name]
+    params = inspect.signature(builder).parameters
+    hints = typing.get_type_hints(builder)
+    accepted = ", ".join(params)
+    kwargs = {}
+    for key, v in options.items():
+        path = ("scene", "options", key)
+        if key not in params:
+            ctx.fail(path, f"unknown option of built-in scene {name!r}; accepted: {accepted}")
+        kwargs[key] = _builtin_value(ctx, path, v, hints.get(key), params[key].default)
+    for key, v in overrides.items():
+        if key not in params:
+            raise ValueError(f"scene {name!r} has no option --{key} (its options: {accepted})")
+        kwargs[key] = _builtin_value(ctx, ("scene", "options", key), v, hints.get(key), params[key].default)
+    return kwargs
+
+
+def _call_builder(ctx: _Ctx, name: str, kwargs: dict) -> Scene:
+    from . import BUILTIN
+
+    try:
+        return BUILTIN[name](**kwargs)
+    except ValueError as exc:
+        named = [k for k in kwargs if re.search(rf"\b{re.escape(k)}\b", str(exc))]
+        path = ("scene", "options", named[0]) if named else ("scene", "builtin")
+        raise ValueError(f"{ctx.where(path)}: key `{_dotted(path)}`: {exc}") from exc
+
+
+def _load_builtin_form(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
+    from . import BUILTIN
+
+    for table in doc:
+        if table not in _BUILTIN_TABLES:
+            path = (table,) + ((0,) if isinstance(doc[table], list) else ())
+            ctx.fail_table(path, f"not used with `builtin` scenes (only {', '.join(_BUILTIN_TABLES)}); put the "
+                                 "builder's keyword arguments under [scene.options], or drop `builtin` to describe "
+                                 "a general scene")
+    scene_t = doc["scene"]
+    for key in scene_t:
+        if key not in ("builtin", "options", "description"):
+            ctx.fail(("scene", key), "unknown key with `builtin`; accepted: builtin, options, description")
+    name = _value(ctx, ("scene", "builtin"), scene_t["builtin"], _Key("str"))
+    if name not in BUILTIN:
+        ctx.fail(("scene", "builtin"), f"unknown built-in scene {name!r}; one of: {', '.join(BUILTIN)}")
+    options = _value(ctx, ("scene", "options"), scene_t.get("options", {}), _Key("table"))
+    return _call_builder(ctx, name, _builder_kwargs(ctx, name, options, overrides))
+
+
+def load_builtin(name: str, *, dx: float | None = None, scheme: str | None = None, coupling: str | None = None,
+                 **options) -> Scene:
+    """Built-in scene ``name`` with ``options`` checked as a scene file's ``[scene.options]`` are
+    (unknown option -> ValueError listing the accepted ones; enums may be given as strings)."""
+    from . import BUILTIN
+
+    if name not in BUILTIN:
+        raise ValueError(f"unknown scene {name!r}; `rockjax list` shows the built-in scenes ({', '.join(BUILTIN)})")
+    ctx = _Ctx(f"scene {name!r}", "", os.getcwd())
+    overrides = {k: v for k, v in (("dx", dx), ("scheme", scheme), ("coupling", coupling)) if v is not None}
+    return _call_builder(ctx, name, _builder_kwargs(ctx, name, options, overrides))
+
+
+# ---- form (b): a general scene -----------------------------------------------------------------
+
+
+def _rotation(axis, angle_deg: float) -> np.ndarray:
+    a = np.asarray(axis, float)
+    a = a / np.linalg.norm(a)
+    t = math.radians(angle_deg)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + math.sin(t) * K + (1 - math.cos(t)) * K @ K
+
+
+def _path_in(ctx: _Ctx, path: tuple, value: str) -> str:
+    return value if os.path.isabs(value) else os.path.join(ctx.base_dir, value)
+
+
+def _check_type_keys(ctx: _Ctx, path: tuple, data: dict, kind_key: str, kind: str, per_kind: dict,
+                     required: dict) -> None:
+    own = per_kind[kind]
+    other = set().union(*per_kind.values()) - own
+    for key in data:
+        if key in other:
+            ctx.fail(path + (key,), f"does not apply to {kind_key} = {kind!r} (its keys: {', '.join(sorted(own))})")
+    for key in required.get(kind, ()):
+        if key not in data:
+            ctx.fail_table(path, f"{kind_key} = {kind!r} needs the key `{key}`")
+
+
+def _blocks_of(ctx: _Ctx, doc: dict):
+    """[[block]] -> list of (polyhedron placed at its centroid, entry dict, path)."""
+    from ..blocks import geometry as geo
+    from .meshes import block_from_mesh
+
+    raw = doc.get("block", [])
+    if not isinstance(raw, list):
+        ctx.fail_table(("block",), "write blocks as an array of tables: [[block]]")
+    out = []
+    for i, data in enumerate(raw):
+        path = ("block", i)
+        b = _table(ctx, path, data, _SCHEMA["block"])
+        _check_type_keys(ctx, path, data, "shape", b["shape"], _BLOCK_KEYS,
+                         {"box": ("size", "position"), "wedge": ("size", "position"), "mesh": ("file",)})
+        if not np.linalg.norm(b["rotation_axis"]) > 0:
+            ctx.fail(path + ("rotation_axis",), "must be a non-zero vector")
+        if b["shape"] == "box":
+            poly = geo.box(*b["size"])
+        elif b["shape"] == "wedge":
+            poly = geo.wedge(*b["size"])
+        else:
+            try:
+                poly = block_from_mesh(_path_in(ctx, path, b["file"]), hull=b["hull"], scale=b["scale"],
+                                       convexity_tol=b["convexity_tol"])
+            except ValueError as exc:
+                ctx.fail(path + ("file",), str(exc))
+        position = np.asarray(b["position"] if b["position"] is not None else poly.centroid_world, float)
+        R = _rotation(b["rotation_axis"], b["rotation_deg"])
+        placed = geo.ConvexPolyhedron.from_vertices(poly.vertices @ R.T + position)
+        out.append((placed, b, path))
+    return out
+
+
+def _fixed_of(ctx: _Ctx, doc: dict, *, clip_lo, clip_hi, exact_within: float):
+    """[[fixed]] -> list of (FixedSolid, entry dict, path)."""
+    from . import meshes
+
+    raw = doc.get("fixed", [])
+    if not isinstance(raw, list):
+        ctx.fail_table(("fixed",), "write fixed geometry as an array of tables: [[fixed]]")
+    out = []
+    for i, data in enumerate(raw):
+        path = ("fixed", i)
+        f = _table(ctx, path, data, _SCHEMA["fixed"])
+        kind = f["type"]
+        _check_type_keys(ctx, path, data, "type", kind, _FIXED_KEYS,
+                         {"box": ("lo", "hi"), "plane": ("point", "normal"), "mesh": ("file",)})
+        name = f["name"] or f"fixed #{i + 1} ({kind})"
+        try:
+            if kind == "box":
+                if not all(h > l for l, h in zip(f["lo"], f["hi"])):
+                    ctx.fail(path + ("hi",), f"must exceed lo on every axis (lo {list(f['lo'])}, hi {list(f['hi'])})")
+                solid = meshes.fixed_box(f["lo"], f["hi"], name=name)
+            elif kind == "plane":
+                if not np.linalg.norm(f["normal"]) > 0:
+                    ctx.fail(path + ("normal",), "must be a non-zero vector (pointing out of the solid, into the water)")
+                if clip_lo is None:
+                    ctx.fail_table(path, "type = 'plane' needs a [domain] to bound it")
+                solid = meshes.fixed_plane(f["point"], f["normal"], clip_lo=clip_lo, clip_hi=clip_hi, name=name)
+            else:
+                solid = meshes.fixed_from_mesh(_path_in(ctx, path, f["file"]), scale=f["scale"], offset=f["offset"],
+                                               convexity_tol=f["convexity_tol"], name=name,
+                                               exact_within=exact_within)
+        except ValueError as exc:
+            if str(exc).startswith(ctx.source):
+                raise
+            key = {"box": "lo", "plane": "point", "mesh": "file"}[kind]
+            ctx.fail(path + (key,), str(exc))
+        out.append((solid, f, path))
+    return out
+
+
+def _array_tables(ctx: _Ctx, doc: dict, name: str) -> list:
+    raw = doc.get(name, [])
+    if not isinstance(raw, list):
+        ctx.fail_table((name,), f"write it as an array of tables: [[{name}]]")
+    return [_table(ctx, (name, i), d, _SCHEMA[name]) for i, d in enumerate(raw)]
+
+
+def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
+    from .. import blocks as blk
+    from .coupled import coupled_scene, coupling_params
+    from .fluid import _scheme_defaults
+    from .shapes import clearance, plane
+
+    for table, value in doc.items():
+        if table not in _SCHEMA or (table in _ARRAYS) != isinstance(value, list):
+            if table in _SCHEMA:
+                ctx.fail_table((table,), f"write it as {'[[' + table + ']]' if table in _ARRAYS else '[' + table + ']'}")
+            if not isinstance(value, dict) and not isinstance(value, list):
+                ctx.fail((table,), f"unknown top-level key; scene files have tables only: {', '.join(_SCHEMA)}")
+            ctx.fail_table((table,), f"unknown table; accepted tables: {', '.join(_SCHEMA)}")
+    scene_t = _table(ctx, ("scene",), doc.get("scene", {}), _SCHEMA["scene"])
+    if scene_t["options"] is not None:
+        ctx.fail(("scene", "options"), "[scene.options] are for built-in scenes; add `builtin = \"NAME\"` to [scene]")
+    sph = _table(ctx, ("sph",), doc.get("sph", {}), _SCHEMA["sph"])
+    cpl = _table(ctx, ("coupling",), doc.get("coupling", {}), _SCHEMA["coupling"])
+    mat = _table(ctx, ("materials",), doc.get("materials", {}), _SCHEMA["materials"])
+    if "dx" in overrides:
+        sph["dx"] = _value(ctx, ("sph", "dx"), overrides["dx"], _SCHEMA["sph"]["dx"])
+    if "scheme" in overrides:
+        sph["scheme"] = _value(ctx, ("sph", "scheme"), overrides["scheme"], _SCHEMA["sph"]["scheme"])
+    if "coupling" in overrides:
+        cpl["method"] = _value(ctx, ("coupling", "method"), overrides["coupling"], _SCHEMA["coupling"]["method"])
+    waters = _array_tables(ctx, doc, "water")
+    gauges = _array_tables(ctx, doc, "gauge")
+    runup = _table(ctx, ("runup",), doc["runup"], _SCHEMA["runup"]) if "runup" in doc else None
+    domain = _table(ctx, ("domain",), doc["domain"], _SCHEMA["domain"]) if "domain" in doc else None
+    name = scene_t["name"] or "scene"
+    has_water = bool(waters)
+
+    # ---- domain and lattice -------------------------------------------------------------------
+    dx = sph["dx"]
+    layers = int(math.ceil(SUPPORT_FACTOR * sph["h_factor"]))
+    if has_water:
+        if domain is None:
+            ctx.fail_table(("water", 0), "water needs a [domain] (the tank: lo, hi)")
+        if dx is None:
+            ctx.fail_table(("sph",), "a scene with water needs the particle spacing: `dx = ...` (m) in [sph]")
+    if domain is not None:
+        lo = np.asarray(domain["lo"], float)
+        hi = np.asarray(domain["hi"], float)
+        if np.any(hi <= lo):
+            ctx.fail(("domain", "hi"), f"must exceed lo on every axis (lo {lo.tolist()}, hi {hi.tolist()})")
+        if has_water:
+            n = np.round((hi - lo) / dx).astype(int)
+            if np.any(n < 4):
+                ctx.fail(("domain", "hi"), f"the domain must be at least 4 dx = {4 * dx:g} m on every axis "
+                                           f"(sizes {(hi - lo).tolist()} m); enlarge it or use a smaller dx")
+            hi = lo + n * dx  # whole cells
+    periodic = domain["periodic"] if domain is not None else (False, False, False)
+    open_top = domain["open_top"] if domain is not None else True
+    pad = layers * dx if has_water else 0.0
+    if domain is not None:
+        grow = (layers + 1) * dx if has_water else 0.1 * float(np.max(hi - lo))
+        clip_lo, clip_hi = lo - grow, hi + grow
+    else:
+        clip_lo = clip_hi = None
+    fixed = _fixed_of(ctx, doc, clip_lo=clip_lo, clip_hi=clip_hi,
+                      exact_within=(layers + 1) * dx if has_water else 0.0)
+    user_blocks = _blocks_of(ctx, doc)
+    moving = [ub for ub in user_blocks if ub[1]["motion"] == "dynamic"]
+    if not has_water and not moving:
+        ctx.fail_table(("scene",), "nothing moves: add [[water]] (with [domain] and [sph] dx) or a "
+                                   "[[block]] with motion = \"dynamic\"")
+    if gauges and not has_water:
+        ctx.fail_table(("gauge", 0), "gauges measure water: add [[water]]")
+    if runup is not None and not has_water:
+        ctx.fail_table(("runup",), "run-up measures water: add [[water]]")
+
+    # fixed user blocks are fixed geometry for the water too
+    from .meshes import fixed_from_polyhedron
+
+    solids = [(s, path) for s, _, path in fixed]
+    solids += [(fixed_from_polyhedron(p, p.centroid_world, name=f"block #{path[1] + 1}"), path)
+               for p, b, path in user_blocks if b["motion"] == "fixed"]
+
+    # moving blocks must not start inside fixed geometry
+    for poly, b, path in moving:
+        verts = poly.vertices + poly.centroid_world
+        size = 2 * poly.bounding_radius
+        for s, spath in solids:
+            depth = float(np.max(s.clearance(verts)))
+            if depth > 1e-3 * size:
+                ctx.fail(path + ("position",), f"the block starts {depth:.3g} m inside {s.name} "
+                                               f"(line {ctx.lines.line(spath)}); move it out")
+
+    meta: dict[str, Any] = {"description": scene_t["description"]} if scene_t["description"] else {}
+    block_kwargs = {k: mat[k] for k in ("cohesion", "normal_stiffness", "shear_stiffness", "penalty_modulus",
+                                         "damping_ratio") if mat[k] is not None}
+    if not has_water:  # blocks only
+        polys = [p for p, _, _ in user_blocks]
+        motion = [blk.Motion.DYNAMIC if b["motion"] == "dynamic" else blk.Motion.FIXED for _, b, _ in user_blocks]
+        dens = [b["density"] for _, b, _ in user_blocks]
+        vel = [b["velocity"] for _, b, _ in user_blocks]
+        for s, f, path in fixed:
+            if s.polyhedron is None:
+                ctx.fail_table(path, "a non-convex fixed mesh cannot be a block (blocks-only scene); split it into "
+                                     "convex pieces")
+            polys.append(s.polyhedron)
+            motion.append(blk.Motion.FIXED)
+            dens.append(2650.0)
+            vel.append((0.0, 0.0, 0.0))
+        try:
+            return coupled_scene(name=name, dx=None, polyhedra=polys, positions=[p.centroid_world for p in polys],
+                                 motion=motion, block_density=dens, friction_angle_deg=mat["friction_angle_deg"],
+                                 velocities=vel, block_kwargs=block_kwargs, meta=meta)
+        except ValueError as exc:
+            raise ValueError(f"{ctx.source}: building the blocks failed: {exc}") from exc
+
+    # ---- particles ----------------------------------------------------------------------------
+    ext_lo = np.array([lo[a] if periodic[a] else lo[a] - pad for a in range(3)])
+    ext_hi = np.array([hi[a] if (periodic[a] or (a == 2 and open_top)) else hi[a] + pad for a in range(3)])
+    pts = lattice(ext_lo, ext_hi, dx)
+    walls_hs = []
+    for a in range(3):
+        if periodic[a]:
+            continue
+        e = np.zeros(3)
+        e[a] = 1.0
+        walls_hs.append(plane(-e, lo))
+        if not (a == 2 and open_top):
+            walls_hs.append(plane(e, hi))
+    phi = clearance(pts, walls_hs) if walls_hs else np.full(len(pts), np.inf)
+    for s, _ in solids:
+        phi = np.minimum(phi, -s.clearance(pts))
+    wall_x = pts[(phi <= 0) & (phi > -layers * dx)]
+    inside = np.all((pts > lo) & (pts < hi), axis=1)
+    water_mask = np.zeros(len(pts), bool)
+    levels = []
+    for i, w in enumerate(waters):
+        wlo = np.asarray(w["lo"] if w["lo"] is not None else lo)
+        whi = np.asarray(w["hi"] if w["hi"] is not None else hi)
+        if np.any(whi <= wlo):
+            ctx.fail(("water", i, "hi"), f"must exceed lo on every axis (lo {wlo.tolist()}, hi {whi.tolist()})")
+        hs = [plane(-np.eye(3)[a], wlo) for a in range(3)] + [plane(np.eye(3)[a], whi) for a in range(3)]
+        if w["level"] is not None:
+            hs.append(plane([0, 0, 1], [0, 0, w["level"]]))
+        hs += [plane(n, p) for p, n in w["planes"]]
+        mine = inside & (clearance(pts, hs) > 0.3 * dx) & (phi > 0.3 * dx)
+        if not np.any(mine):
+            ctx.fail_table(("water", i), f"holds no water particle at dx = {dx:g} m (is it inside the domain and "
+                                         "outside the fixed geometry?)")
+        water_mask |= mine
+        levels.append(w["level"] if w["level"] is not None else float(whi[2]))
+    for poly, b, path in moving:
+        from .meshes import world_halfspaces
+
+        phib = clearance(pts, world_halfspaces(poly, poly.centroid_world))
+        water_mask &= phib < -0.25 * dx
+    fluid_x = pts[water_mask]
+    if len(fluid_x) == 0:
+        ctx.fail_table(("water", 0), "no water particle is left outside the blocks")
+    still = scene_t["still_level"] if scene_t["still_level"] is not None else max(levels)
+    z_bottom = float(np.min(fluid_x[:, 2])) - 0.5 * dx
+    speed = math.sqrt(2 * GRAVITY * max(still - z_bottom, dx))
+    for poly, b, _ in moving:
+        drop = max(float(poly.centroid_world[2]) - z_bottom, 0.0)
+        speed = max(speed, float(np.linalg.norm(b["velocity"])) + math.sqrt(2 * GRAVITY * drop))
+    c0 = sph["c0"] if sph["c0"] is not None else 10.0 * speed
+    scheme, alpha, nu = _scheme_defaults(Scheme(sph["scheme"]), sph["alpha"], sph["nu"])
+    dom_lo = np.array([lo[a] if periodic[a] else lo[a] - pad for a in range(3)])
+    dom_hi = np.array([hi[a] if periodic[a] else hi[a] + pad for a in range(3)])
+    meta.update(still_level=float(still), domain_lo=lo.tolist(), domain_hi=hi.tolist(), c0=float(c0))
+    if gauges:
+        meta["gauges"] = dict(names=[g["name"] or f"g{i + 1}" for i, g in enumerate(gauges)],
+                              xy=[list(g["xy"]) for g in gauges],
+                              bottom_z=[g["bottom_z"] if g["bottom_z"] is not None else float(lo[2]) for g in gauges])
+    if runup is not None:
+        n = np.asarray(runup["normal"])
+        if not np.linalg.norm(n) > 0:
+            ctx.fail(("runup", "normal"), "must be a non-zero vector (the slope's outward normal)")
+        meta["runup_slope"] = dict(point=list(runup["point"]), normal=(n / np.linalg.norm(n)).tolist(),
+                                   x_min=runup["x_min"])
+    walls_only = [s.name for s, f, _ in fixed if s.polyhedron is None or not f["block"]]
+    if walls_only:
+        meta["fixed_walls_only"] = walls_only
+    common = dict(h_factor=sph["h_factor"], alpha=alpha, nu=nu, delta=sph["delta"], skin_factor=sph["skin_factor"],
+                  rebuild_every=sph["rebuild_every"], cfl=sph["cfl"])
+    if not moving:
+        return fluid_scene(name=name, dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,
+                           periodic=tuple(periodic), surface_z=still, c0=c0, scheme=scheme,
+                           kernel=KernelKind(sph["kernel"]), viscosity=Viscosity(sph["viscosity"]),
+                           wall_model=WallModel(sph["wall_model"]),
+                           density_diffusion=DensityDiffusion(sph["density_diffusion"]), meta=meta, **common)
+    for key in ("kernel", "viscosity", "wall_model", "density_diffusion"):
+        if sph[key] != _SCHEMA["sph"][key].default:
+            ctx.fail(("sph", key), f"scenes with moving blocks use {key} = {_SCHEMA['sph'][key].default!r} "
+                                   "(coupled_scene); remove the key")
+    if walls_only and any(s.polyhedron is None for s, _, _ in fixed):
+        warnings.warn(f"{ctx.source}: {', '.join(walls_only)} is not convex: it is walls for the water only, and "
+                      "moving blocks will pass through it (split it into convex pieces to make it a block)",
+                      stacklevel=3)
+    polys, motion, dens, vel = [], [], [], []
+    for p, b, _ in user_blocks:
+        polys.append(p)
+        motion.append(blk.Motion.DYNAMIC if b["motion"] == "dynamic" else blk.Motion.FIXED)
+        dens.append(b["density"])
+        vel.append(b["velocity"])
+    for s, f, _ in fixed:
+        if s.polyhedron is not None and f["block"]:
+            polys.append(s.polyhedron)
+            motion.append(blk.Motion.FIXED)
+            dens.append(2650.0)
+            vel.append((0.0, 0.0, 0.0))
+    try:
+        scene = coupled_scene(name=name, dx=dx, polyhedra=polys, positions=[p.centroid_world for p in polys],
+                              motion=motion, block_density=dens, friction_angle_deg=mat["friction_angle_deg"],
+                              fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,
+                              periodic=tuple(periodic), still_level=still, coupling=Coupling(cpl["method"]), c0=c0,
+                              scheme=scheme, velocities=vel, block_kwargs=block_kwargs, meta=meta, **common)
+    except ValueError as exc:
+        raise ValueError(f"{ctx.source}: building the scene failed: {exc}") from exc
+    if scene.params.coupling is not None and any(cpl[k] is not None for k in ("stiffness", "damping",
+                                                                               "interaction_distance")):
+        scene = scene.replace(params=scene.params.replace(coupling=coupling_params(
+            dx=dx, c0=c0, stiffness=cpl["stiffness"], damping=cpl["damping"],
+            interaction_distance=cpl["interaction_distance"])))
+    return scene
