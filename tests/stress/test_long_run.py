@@ -1,0 +1,101 @@
+"""Stress: a long float32 run per scheme -- mass conserved exactly, energy within stated bounds.
+
+Scene: a water column a x 2a (a = 0.08 m, dx = a / 4 = 0.02 m, 224 fluid particles) collapsing in
+a closed-bottom tank 2a long and 4a high, as a periodic slab 7 dx wide (``scenes.dam_break`` with
+``periodic_y``, the set-up of tests/physics/test_energy.py at a coarser resolution), float32,
+``LONG_STEPS`` = 1e5 steps of dt = 0.25 h / c0 = 3.67e-4 s (36.7 s of physical time: the surge, the
+sloshing, and ~35 s of water coming to rest). ``ROCKJAX_STRESS_LONG_STEPS`` overrides the count.
+
+Checks, per scheme:
+* mass: the fluid mass (sum of rho0 vol over fluid particles, ``observables.fluid_mass``) at the
+  end equals the start bit for bit, no particle changed kind, every fluid particle is finite and
+  inside the tank (within half a spacing of its walls) -- nothing leaked or was dropped;
+* energy (E = kinetic + potential + elastic, ``validation.energy_history``, in units of
+  m g (2a), m the fluid mass): the impact dissipates 0.1-0.15 of it, so
+  - growth above the initial energy, max_t E(t) - E(0) <= 1e-3 (as in test_energy.py);
+  - rebound after a dip, max_t (E(t) - min_{s<=t} E(s)) <= 3e-3 (as in test_energy.py);
+  - drift at rest over the last half of the run (the water is still): |E(end) - E(mid)| <= 1e-3,
+    i.e. no slow float32 creep of energy over 5e4 steps.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+import pytest
+
+import rockjax as rj
+from rockjax.observables import fluid_mass
+from rockjax.validation import energy_history
+
+from stress_common import finite_particles
+
+pytestmark = pytest.mark.stress
+
+A = 0.08
+DX = A / 4
+LONG_STEPS = int(os.environ.get("ROCKJAX_STRESS_LONG_STEPS", "100000"))
+FRAMES = 50
+
+
+def _scene(scheme):
+    w = 7 * DX
+    return rj.scenes.dam_break(dx=DX, column_length=A, column_width=w, column_height=2 * A, tank_length=2 * A,
+                               tank_width=w, tank_height=4 * A, periodic_y=True, scheme=scheme)
+
+
+@pytest.fixture(scope="module", params=[rj.Scheme.WCSPH, rj.Scheme.SEED], ids=lambda s: s.value)
+def long_run(request):
+    scheme = request.param
+    scene = _scene(scheme)
+    k = scene.config.rebuild_every
+    per_frame = max(k, (LONG_STEPS // FRAMES) // k * k)
+    n_frames = max(1, round(LONG_STEPS / per_frame))
+    t_end = n_frames * per_frame * scene.config.dt
+    res = rj.simulate(scene, t_end=t_end * (1 - 1e-9), frame_dt=per_frame * scene.config.dt, progress=False)
+    e = energy_history(res)
+    m = float(fluid_mass(scene.state, scene.params))
+    scale = m * 9.81 * 2 * A
+    tot = e["total"] / scale
+    half = len(tot) // 2
+    fluid = res.frames["kind"][0] == rj.Kind.FLUID
+    x = res.frames["x"][-1, fluid]
+    out = dict(scheme=scheme, res=res, steps=res.stats["steps"], wall=res.stats["wall_s"], m0=m,
+               m1=float(fluid_mass(res.state, res.scene.params)),
+               kinds_same=bool(np.array_equal(np.asarray(res.frames["kind"][0]), np.asarray(res.frames["kind"][-1]))),
+               inside=bool(np.all((x[:, 0] > -DX / 2) & (x[:, 0] < 2 * A + DX / 2) & (x[:, 2] > -DX / 2)
+                                  & (x[:, 2] < 4 * A))),
+               growth=float(np.max(tot - tot[0])), rebound=float(np.max(tot - np.minimum.accumulate(tot))),
+               late=float(abs(tot[-1] - tot[half])), lost=float(tot[0] - tot[-1]),
+               ke_end=float(e["kinetic"][-1] / scale),
+               rho_dev=float(np.mean(np.abs(res.frames["rho"][-1, fluid] / 1000.0 - 1.0))))
+    print(f"\nlong run {scheme.value}: {out['steps']} steps ({out['steps'] * scene.config.dt:.1f} s), wall "
+          f"{out['wall']:.0f} s, regrows {res.stats['regrows']}; mass {out['m0']!r} -> {out['m1']!r}; energy (m g 2a): "
+          f"growth {out['growth']:.2e}, rebound {out['rebound']:.2e}, late drift {out['late']:.2e}, lost "
+          f"{out['lost']:.3f}, kinetic at end {out['ke_end']:.2e}; mean |rho/rho0 - 1| at end {out['rho_dev']:.2e}; "
+          f"E/(m g 2a) - E0 every {len(tot) // 10 or 1} frames: {np.round(tot - tot[0], 4)[::max(1, len(tot) // 10)].tolist()}")
+    return out
+
+
+def test_long_run_completes_finite(long_run):
+    assert long_run["steps"] >= LONG_STEPS
+    assert int(long_run["res"].state.status) == 0
+    assert finite_particles(long_run["res"].state)
+
+
+def test_mass_conserved_exactly(long_run):
+    assert long_run["m1"] == long_run["m0"]
+    assert long_run["kinds_same"]
+    assert long_run["inside"]
+
+
+def test_energy_no_growth(long_run):
+    assert long_run["lost"] > 0.05  # the impact really dissipated (the scene is not trivial)
+    assert long_run["growth"] <= 1e-3, long_run["growth"]
+    assert long_run["rebound"] <= 3e-3, long_run["rebound"]
+
+
+def test_energy_no_drift_at_rest(long_run):
+    assert long_run["late"] <= 1e-3, long_run["late"]
