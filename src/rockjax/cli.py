@@ -1,12 +1,30 @@
-"""Command line: ``rockjax list`` and
-``rockjax run SCENE [--t-end T] [--dx DX] [--scheme S] [--coupling C] [--out run.h5] [--dry-run]``."""
+"""Command line: ``rockjax list`` and ``rockjax run NAME_OR_FILE [--t-end T] [--dx DX] [--scheme S]
+[--coupling C] [--out run.h5] [--frame-dt DT] [--dry-run] [--quiet]``.
+
+``run`` takes a built-in scene name (``rockjax list``) or a TOML scene file (a path ending in
+``.toml`` or any existing file; see ``rockjax.scenes.scenefile``). Flags given on the command line
+override the file's values. ``--dry-run`` prints one JSON line (counts, dt, steps, stages, memory
+estimate) without running. Exit status: 0 done, 1 the run failed, 2 bad input.
+
+The parser is built by :func:`build_parser`, one ``_add_<command>`` function per subcommand;
+a new subcommand is one more such function registered there.
+"""
 
 from __future__ import annotations
 
 import argparse
 import inspect
 import json
+import os
 import sys
+
+_EPILOG = """examples:
+  rockjax list                                   the built-in scenes
+  rockjax run dam_break --dx 0.05 --t-end 0.5    a built-in scene at a coarse resolution
+  rockjax run examples/box_off_ramp.toml --dry-run
+  rockjax run examples/box_off_ramp.toml --out run.h5
+scene files: examples/*.toml (every built-in scene, and general scenes); format in
+rockjax/scenes/scenefile.py. Units are SI (m, s, kg/m^3)."""
 
 
 def _cmd_list(_args) -> int:
@@ -18,43 +36,51 @@ def _cmd_list(_args) -> int:
     return 0
 
 
+def is_scene_file(target: str) -> bool:
+    """Whether ``rockjax run TARGET`` means a scene file: a path ending in .toml, or an existing file."""
+    return target.lower().endswith(".toml") or os.path.isfile(target)
+
+
+def _load(args):
+    """(scene, t_end, frame_dt, out) from a name or a scene file, command-line flags first."""
+    from .scenes import BUILTIN
+    from .scenes.scenefile import load, load_builtin
+
+    overrides = dict(dx=args.dx, scheme=args.scheme, coupling=args.coupling)
+    if is_scene_file(args.scene):
+        sf = load(args.scene, **overrides)
+        run = sf.run
+        pick = (lambda flag, file, default: flag if flag is not None else (file if file is not None else default))
+        return sf.scene, pick(args.t_end, run.t_end, 1.0), pick(args.frame_dt, run.frame_dt, None), \
+            pick(args.out, run.out, None)
+    if args.scene not in BUILTIN:
+        raise LookupError(f"unknown scene {args.scene!r}; `rockjax list` shows the built-in scenes, "
+                          "or give a scene file (a path ending in .toml)")
+    scene = load_builtin(args.scene, **overrides)
+    return scene, (args.t_end if args.t_end is not None else 1.0), args.frame_dt, args.out
+
+
 def _cmd_run(args) -> int:
     from .driver import SimulationError, simulate
-    from .scenes import BUILTIN
     from .observables import scene_observer
-    from .types import Coupling, Scheme
 
-    if args.scene not in BUILTIN:
-        print(f"rockjax: unknown scene {args.scene!r}; `rockjax list` shows the built-in scenes", file=sys.stderr)
-        return 2
-    builder = BUILTIN[args.scene]
-    accepted = inspect.signature(builder).parameters
-    kwargs = {}
-    for key, value in (("dx", args.dx), ("scheme", args.scheme and Scheme(args.scheme)),
-                       ("coupling", args.coupling and Coupling(args.coupling))):
-        if value is None:
-            continue
-        if key not in accepted:
-            print(f"rockjax: scene {args.scene!r} has no option --{key}", file=sys.stderr)
-            return 2
-        kwargs[key] = value
     try:
-        scene = builder(**kwargs)
-    except ValueError as e:
+        scene, t_end, frame_dt, out = _load(args)
+    except (LookupError, ValueError) as e:
         print(f"rockjax: {e}", file=sys.stderr)
         return 2
-    info = describe(scene, args.t_end)
+    info = describe(scene, t_end)
     print(" ".join(f"{k}={v}" for k, v in info.items()), file=sys.stderr)
     if args.dry_run:
-        print(json.dumps(info))
+        print(json.dumps(dict(info, t_end_s=t_end, frame_dt_s=frame_dt, out=out)))
         return 0
     try:
-        result = simulate(scene, t_end=args.t_end, out=args.out, frame_dt=args.frame_dt,
+        result = simulate(scene, t_end=t_end, out=out, frame_dt=frame_dt,
                           progress=not args.quiet and None, keep_frames=False, observe=scene_observer(scene.meta))
     except (SimulationError, ValueError) as e:
         print(f"rockjax: {e}", file=sys.stderr)
         return 1
-    summary = {"scene": scene.name, "t_end": float(result.times[-1]), "frames": len(result.times), "out": args.out,
+    summary = {"scene": scene.name, "t_end": float(result.times[-1]), "frames": len(result.times), "out": out,
                **{k: round(v, 3) if isinstance(v, float) else v for k, v in result.stats.items()}}
     if result.observed and "runup" in result.observed:
         summary["max_runup_m"] = round(float(max(result.observed["runup"])), 4)
@@ -76,25 +102,46 @@ def describe(scene, t_end: float) -> dict:
             "memory_MB_est": round(4 * bytes_est / 2**20, 1)}
 
 
+def _add_list(sub) -> None:
+    p = sub.add_parser("list", help="list the built-in scenes", description="List the built-in scenes.")
+    p.set_defaults(func=_cmd_list)
+
+
+def _add_run(sub) -> None:
+    p = sub.add_parser("run", help="run a built-in scene or a TOML scene file",
+                       description="Run a built-in scene (`rockjax list`) or a TOML scene file; flags override "
+                                   "the file's values.", epilog=_EPILOG,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("scene", metavar="NAME_OR_FILE",
+                   help="built-in scene name (see `rockjax list`) or a scene file (*.toml)")
+    p.add_argument("--t-end", type=float, default=None,
+                   help="end time in seconds (default: the file's [run] t_end, else 1.0)")
+    p.add_argument("--dx", type=float, default=None,
+                   help="particle spacing in metres (default: the scene's or the file's)")
+    p.add_argument("--scheme", choices=["wcsph", "seed"], default=None, help="SPH scheme (default wcsph)")
+    p.add_argument("--out", default=None, help="HDF5 output file (default: the file's [output] out, else none)")
+    p.add_argument("--frame-dt", type=float, default=None, help="output interval in seconds")
+    p.add_argument("--coupling", choices=["penalty", "boundary_particles"], default=None,
+                   help="fluid-block coupling (scenes with blocks)")
+    p.add_argument("--dry-run", action="store_true",
+                   help="print counts, dt, steps, stages and a memory estimate (JSON) without running")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_run)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``rockjax`` argument parser: one ``_add_<command>(sub)`` per subcommand."""
+    parser = argparse.ArgumentParser(prog="rockjax", description="Differentiable SPH + 3D-DDA rock-slide simulator",
+                                     epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
+    _add_list(sub)
+    _add_run(sub)
+    # `rockjax plot run.h5`: the lead adds `p_plot = sub.add_parser("plot", ...)` calling rockjax.plots.main(args)
+    return parser
+
+
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="rockjax", description="Differentiable SPH + 3D-DDA rock-slide simulator")
-    sub = parser.add_subparsers(dest="cmd", required=True)
-    p_list = sub.add_parser("list", help="list the built-in scenes")
-    p_list.set_defaults(func=_cmd_list)
-    p_run = sub.add_parser("run", help="run a built-in scene")
-    p_run.add_argument("scene", help="built-in scene name (see `rockjax list`)")
-    p_run.add_argument("--t-end", type=float, default=1.0, help="end time in seconds (default 1.0)")
-    p_run.add_argument("--dx", type=float, default=None, help="particle spacing in metres (scene default if omitted)")
-    p_run.add_argument("--scheme", choices=["wcsph", "seed"], default=None, help="SPH scheme (default wcsph)")
-    p_run.add_argument("--out", default=None, help="HDF5 output file")
-    p_run.add_argument("--frame-dt", type=float, default=None, help="output interval in seconds")
-    p_run.add_argument("--coupling", choices=["penalty", "boundary_particles"], default=None,
-                       help="fluid-block coupling (scenes with blocks)")
-    p_run.add_argument("--dry-run", action="store_true",
-                       help="print counts, dt, steps, stages and a memory estimate without running")
-    p_run.add_argument("--quiet", action="store_true", help="no progress bar")
-    p_run.set_defaults(func=_cmd_run)
-    args = parser.parse_args(argv)
+    args = build_parser().parse_args(argv)
     return args.func(args)
 
 

@@ -182,7 +182,7 @@ class _LineIndex:
             m = re.match(r"\s*\[\[(.+)\]\]\s*$", line)
             if m:
                 parts = _parts(m.group(1))
-                path = self._resolve(parts, counts)
+                path = self._resolve(parts[:-1], counts) + (parts[-1],)  # the array itself is not indexed
                 counts[path] = counts.get(path, -1) + 1
                 table = path + (counts[path],)
                 self.index.setdefault(table, no)
