@@ -81,7 +81,7 @@ def test_xdmf_particles_read_by_meshio(run, tmp_path):
                 np.testing.assert_array_equal(pd["kind"], f["kind"][()])
                 assert [c.type for c in cells] == ["vertex"] and len(cells[0].data) == N
                 # no copy of particle data: each frame is a view of /x
-                assert f[f"xdmf/frames/{k:06d}/x"].is_virtual
+                assert f[f"xdmf/frames/x/{k:06d}"].is_virtual
     # and the frames are those the driver produced (not all equal to frame 0)
     assert not np.array_equal(frames[0][1], frames[-1][1])
 
@@ -215,3 +215,23 @@ def test_progress_bar_shows_eta_and_is_quiet_off_terminal(scene, run, capsys):
     err = capsys.readouterr().err
     assert re.search(r"\d\d:\d\d<\d\d:\d\d", err), err  # elapsed<remaining (ETA)
     assert "frame" in err and "steps/s=" in err and "t=" in err
+
+
+def test_write_xdmf_fluid_only_blocks_only_and_rewrite(run, tmp_path):
+    h5 = run[0]
+    fluid, rocks = tmp_path / "fluid.h5", tmp_path / "rocks.h5"
+    shutil.copy(h5, fluid)
+    shutil.copy(h5, rocks)
+    with h5py.File(fluid, "a") as f:
+        del f["blocks"]
+    with h5py.File(rocks, "a") as f:
+        for name in ("x", "v", "rho", "p", "kind"):
+            del f[name]
+    assert [p.name for p in write_xdmf(fluid)] == ["fluid.xdmf"]
+    assert [p.name for p in write_xdmf(rocks, tmp_path / "r.xdmf")] == ["r_blocks.xdmf"]
+    # writing again replaces the /xdmf group and gives the same reading
+    first = _frames(tmp_path / "r_blocks.xdmf")
+    write_xdmf(rocks, tmp_path / "r.xdmf")
+    for a, b in zip(first, _frames(tmp_path / "r_blocks.xdmf")):
+        np.testing.assert_array_equal(a[1], b[1])
+        np.testing.assert_array_equal(a[2][0].data, b[2][0].data)
