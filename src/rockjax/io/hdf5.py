@@ -12,7 +12,8 @@ Layout::
     /block_x         [F, B, 3] m block centroids (scenes with blocks)
     /block_q         [F, B, 4] unit quaternions (w, x, y, z), body -> world
     /block_v, /block_omega  [F, B, 3] m/s, rad/s
-    /blocks/...      static block geometry (body-frame vertices, faces) for viewers
+    /blocks/...      static block geometry for viewers: vertices [B, V, 3] m (body frame, about the
+                     centroid), vertex_mask, face_mask, he_vert, he_next, he_face, halfedge_mask
     /observed/NAME   [F, ...] what ``simulate(observe=...)`` recorded at each frame (gauges [F, M] m,
                      runup, smooth_runup [F] m, energies [F] J, ...)
     /xdmf/...        views for the XDMF sidecars, added by ``io.xdmf.write_xdmf`` (see there)
@@ -80,7 +81,7 @@ class Writer:
         blocks = getattr(scene.state, "blocks", None)
         if blocks is not None:
             gb = self.f.create_group("blocks")
-            for name in ("vertices", "vertex_mask", "face_first_he", "face_mask", "he_vert", "he_next",
+            for name in ("vertices", "vertex_mask", "face_mask", "he_vert", "he_next", "he_face",
                          "halfedge_mask"):
                 value = getattr(blocks.shape, name, None)
                 if value is not None:
