@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import pathlib
 import re
-import warnings
 
 import jax
 import numpy as np
@@ -92,6 +91,14 @@ def test_box_off_ramp_geometry(ramp):
     assert B.n_blocks == 4 and [m.name for m in B.motion] == ["DYNAMIC", "FIXED", "FIXED", "FIXED"]
     # the rock: 0.2 x 0.16 x 0.1 m box of 2500 kg/m^3, its centroid where the file puts it
     np.testing.assert_allclose(np.asarray(ramp.state.blocks.x)[0], [0.2755, 0.2, 0.4885], atol=1e-6)
+    np.testing.assert_allclose(np.asarray(ramp.state.blocks.x)[3], [1.0, 0.2, -0.1], atol=1e-6)  # the floor box
+    # every fixed block lies where its file entry puts it: the ramp's and beach's top faces on their planes
+    from rockjax.blocks import world_planes
+    n, d = (np.asarray(a) for a in world_planes(ramp.state.blocks))
+    for b, (point, normal) in ((1, ([0.5, 0, 0.3], [0.5, 0, 0.8660254])), (2, ([1.7, 0, 0], [-0.3420201, 0, 0.9396926]))):
+        f = np.argmax(n[b] @ np.asarray(normal))
+        assert n[b, f] @ np.asarray(normal) == pytest.approx(1.0, abs=1e-6)
+        assert d[b, f] == pytest.approx(n[b, f] @ np.asarray(point), abs=1e-5)
     vol = float(np.asarray(ramp.state.blocks.shape.volume)[0])
     assert vol == pytest.approx(0.2 * 0.16 * 0.1, rel=1e-5)
     assert float(np.asarray(ramp.params.blocks.density)[0]) == 2500.0
@@ -258,11 +265,28 @@ def test_builtin_form_errors():
         load('[scene]\nbuiltin = "block_on_incline"\n', dx=0.1)
 
 
+def test_wedge_block_with_velocity_blocks_only():
+    """A blocks-only scene (no [[water]]): a wedge (right angle at its origin) given an initial
+    velocity above a fixed floor box; volume L W H / 2, centroid where placed, velocity as given."""
+    scene = load('[[block]]\nshape = "wedge"\nsize = [0.3, 0.2, 0.1]\nposition = [0.0, 0.0, 0.2]\n'
+                 'velocity = [1.0, 0.0, -0.5]\ndensity = 2000.0\n'
+                 '[[fixed]]\ntype = "box"\nlo = [-1.0, -1.0, -0.2]\nhi = [1.0, 1.0, 0.0]\n'
+                 '[materials]\nfriction_angle_deg = 35.0\n').scene
+    assert scene.state.particles is None and scene.config.n_fluid == 0
+    assert [m.name for m in scene.config.blocks.motion] == ["DYNAMIC", "FIXED"]
+    assert float(np.asarray(scene.state.blocks.shape.volume)[0]) == pytest.approx(0.3 * 0.2 * 0.1 / 2, rel=1e-6)
+    np.testing.assert_allclose(np.asarray(scene.state.blocks.x), [[0.0, 0.0, 0.2], [0.0, 0.0, -0.1]], atol=1e-6)
+    np.testing.assert_allclose(np.asarray(scene.state.blocks.v)[0], [1.0, 0.0, -0.5])
+    assert np.degrees(float(scene.params.blocks.friction_angle)) == pytest.approx(35.0, rel=1e-5)
+
+
 def test_toml_syntax_error_and_missing_file(tmp_path):
     with pytest.raises(ValueError, match=r"not valid TOML: .*line 2"):
         load('[scene]\nname = \n')
     with pytest.raises(ValueError, match="does not exist"):
         load(tmp_path / "nope.toml")
+    with pytest.raises(ValueError, match="scene file 'nope' does not exist"):
+        load("nope")
 
 
 def test_line_index_skips_multiline_arrays():

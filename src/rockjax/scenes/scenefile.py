@@ -454,8 +454,7 @@ def _table(ctx: _Ctx, path: tuple, data, schema: dict[str, _Key]) -> dict:
 def _read(path_or_text) -> tuple[str, str, str]:
     """(source name, text, base directory for relative paths)."""
     if isinstance(path_or_text, os.PathLike) or (
-            isinstance(path_or_text, str) and "\n" not in path_or_text and "=" not in path_or_text
-            and (path_or_text.endswith(".toml") or os.path.isfile(path_or_text))):
+            isinstance(path_or_text, str) and "\n" not in path_or_text and "=" not in path_or_text):
         path = os.fspath(path_or_text)
         if not os.path.isfile(path):
             raise ValueError(f"scene file {path!r} does not exist")
@@ -835,6 +834,7 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
                                          "damping_ratio") if mat[k] is not None}
     if not has_water:  # blocks only
         polys = [p for p, _, _ in user_blocks]
+        positions = [p.centroid_world for p in polys]
         motion = [blk.Motion.DYNAMIC if b["motion"] == "dynamic" else blk.Motion.FIXED for _, b, _ in user_blocks]
         dens = [b["density"] for _, b, _ in user_blocks]
         vel = [b["velocity"] for _, b, _ in user_blocks]
@@ -843,11 +843,12 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
                 ctx.fail_table(path, "a non-convex fixed mesh cannot be a block (blocks-only scene); split it into "
                                      "convex pieces")
             polys.append(s.polyhedron)
+            positions.append(s.position)
             motion.append(blk.Motion.FIXED)
             dens.append(2650.0)
             vel.append((0.0, 0.0, 0.0))
         try:
-            return coupled_scene(name=name, dx=None, polyhedra=polys, positions=[p.centroid_world for p in polys],
+            return coupled_scene(name=name, dx=None, polyhedra=polys, positions=positions,
                                  motion=motion, block_density=dens, friction_angle_deg=mat["friction_angle_deg"],
                                  velocities=vel, block_kwargs=block_kwargs, meta=meta)
         except ValueError as exc:
@@ -936,20 +937,22 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
         warnings.warn(f"{ctx.source}: {', '.join(walls_only)} is not convex: it is walls for the water only, and "
                       "moving blocks will pass through it (split it into convex pieces to make it a block)",
                       stacklevel=3)
-    polys, motion, dens, vel = [], [], [], []
+    polys, positions, motion, dens, vel = [], [], [], [], []
     for p, b, _ in user_blocks:
         polys.append(p)
+        positions.append(p.centroid_world)
         motion.append(blk.Motion.DYNAMIC if b["motion"] == "dynamic" else blk.Motion.FIXED)
         dens.append(b["density"])
         vel.append(b["velocity"])
     for s, f, _ in fixed:
         if s.polyhedron is not None and f["block"]:
             polys.append(s.polyhedron)
+            positions.append(s.position)
             motion.append(blk.Motion.FIXED)
             dens.append(2650.0)
             vel.append((0.0, 0.0, 0.0))
     try:
-        scene = coupled_scene(name=name, dx=dx, polyhedra=polys, positions=[p.centroid_world for p in polys],
+        scene = coupled_scene(name=name, dx=dx, polyhedra=polys, positions=positions,
                               motion=motion, block_density=dens, friction_angle_deg=mat["friction_angle_deg"],
                               fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,
                               periodic=tuple(periodic), still_level=still, coupling=Coupling(cpl["method"]), c0=c0,
