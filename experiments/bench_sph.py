@@ -20,8 +20,14 @@ The chunk starts from the primed initial state (water at rest, breaking) and its
 must be clean (no overflow, no stale list); a growable status bit is cured the way the driver
 cures it (``driver._grow``) and the case is rerun, the final capacities are reported.
 
+* ``rebuilds``: list rebuilds in one timed chunk (block starts + displacement triggers, see
+  ``rockjax.rollout.needs_rebuild``; ``--no-trigger`` for the fixed schedule only);
+* ``warm_s``: simulated time [s] run before timing (``--warm-time``); from rest (0) the water is
+  slow and displacement-triggered lists are rarely rebuilt, so time developed flow as well.
+
 Usage: ``python experiments/bench_sph.py [--sizes 5k 20k 80k] [--schemes wcsph seed]
-[--blocks 4] [--reps 3] [--skin-factor 0.6] [--rebuild-every 8]``.
+[--blocks 4] [--reps 3] [--skin-factor 0.6] [--rebuild-every 8] [--warm-time 0.3] [--no-trigger]
+[--tag NAME]``.
 Sizes follow the peers (``shared/peers/common.py``): a = 0.5 m column of 2 nx^3 particles,
 nx = 14, 22, 34 (5488, 21296, 78608 fluid particles); ``160k`` is nx = 43.
 """
@@ -45,13 +51,13 @@ def _cpu() -> float:
 
 
 def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: float | None,
-             rebuild_every: int | None) -> dict:
+             rebuild_every: int | None, warm_time: float = 0.0, trigger: bool = True, tag: str = "") -> dict:
     import jax
     import numpy as np
 
     import rockjax as rj
     from rockjax.driver import _grow, resize
-    from rockjax.rollout import make_rollout
+    from rockjax.rollout import make_rollout, needs_rebuild
     from rockjax.step import advance, prime, refresh
 
     nx = SIZES[size]
@@ -71,9 +77,14 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
         t0 = time.perf_counter()
         prime_c = jax.jit(lambda s, p: prime(s, p, config)).lower(state0, params).compile()
         state = prime_c(state0, params)
-        chunk = jax.jit(lambda s, p: make_rollout(config, blocks, checkpoint=False)(s, p)[0])
+        chunk = jax.jit(lambda s, p: make_rollout(config, blocks, checkpoint=False,
+                                                  rebuild_on_displacement=trigger)(s, p)[0])
         chunk_c = chunk.lower(state, params).compile()
         compile_s = time.perf_counter() - t0
+        warm_steps = 0
+        while warm_steps * config.dt < warm_time - 1e-12:
+            state = chunk_c(state, params)
+            warm_steps += blocks * config.rebuild_every
         out = jax.block_until_ready(chunk_c(state, params))
         bits = int(out.status) | int(state.status)
         if bits & ~int(rj.Status.growable()):
@@ -87,6 +98,15 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
         state0 = resize(state0, config)
 
     steps = blocks * config.rebuild_every
+
+    def count_rebuilds(s, p):  # the timed chunk's schedule, counting its rebuilds
+        def one(s, i):
+            due = (i % config.rebuild_every == 0) | (trigger & needs_rebuild(s, config))
+            s = jax.lax.cond(due, lambda s: refresh(s, config), lambda s: s, s)
+            return advance(s, p, config), due
+        return jax.lax.scan(one, s, jax.numpy.arange(steps))[1].sum()
+
+    rebuilds = int(jax.jit(count_rebuilds)(state, params))
     load_before = os.getloadavg()[0]
     walls, cpus = [], []
     for _ in range(reps):
@@ -115,10 +135,11 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
     ms_step = 1e3 * best(advance_c, state, params)
     nf, nw = counts["fluid"], counts["wall"]
     return {
-        "bench": "sph_dam_break_3d", "size": size, "scheme": scheme, "n_fluid": nf, "n_wall": nw,
+        "bench": "sph_dam_break_3d", "tag": tag, "size": size, "scheme": scheme, "n_fluid": nf, "n_wall": nw,
         "dx": 0.5 / nx, "dtype": str(np.asarray(state.particles.x).dtype),
         "K": config.neighbour_capacity, "cell_capacity": config.cell_capacity,
         "skin_dx": round(config.skin / (0.5 / nx), 3), "rebuild_every": config.rebuild_every, "regrows": regrows,
+        "trigger": trigger, "warm_s": round(warm_steps * config.dt, 4), "rebuilds": rebuilds,
         "steps_timed": steps, "reps": reps,
         "ms_per_step": round(1e3 * wall / steps, 2), "cpu_ms_per_step": round(1e3 * sorted(cpus)[len(cpus) // 2] / steps, 2), "ms_build": round(ms_build, 2), "ms_step": round(ms_step, 2),
         "ms_per_step_model": round(ms_step + ms_build / config.rebuild_every, 2),
@@ -139,16 +160,22 @@ def main(argv=None):
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--skin-factor", type=float, default=None, help="Verlet skin / dx (scene default if omitted)")
     ap.add_argument("--rebuild-every", type=int, default=None, help="steps per list (scene default if omitted)")
+    ap.add_argument("--warm-time", type=float, default=0.0, help="simulated seconds to run before timing")
+    ap.add_argument("--no-trigger", action="store_true", help="fixed rebuild schedule (no displacement trigger)")
+    ap.add_argument("--tag", default="", help="label stored in each record")
     ap.add_argument("--case", nargs=2, metavar=("SIZE", "SCHEME"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
-    opts = dict(blocks=args.blocks, reps=args.reps, skin_factor=args.skin_factor, rebuild_every=args.rebuild_every)
+    opts = dict(blocks=args.blocks, reps=args.reps, skin_factor=args.skin_factor, rebuild_every=args.rebuild_every,
+                warm_time=args.warm_time, trigger=not args.no_trigger, tag=args.tag)
     if args.case:
         print(json.dumps(run_case(args.case[0], args.case[1], **opts)), flush=True)
         return
     for size in args.sizes:
         for scheme in args.schemes:
             cmd = [sys.executable, os.path.abspath(__file__), "--case", size, scheme, "--blocks", str(args.blocks),
-                   "--reps", str(args.reps)]
+                   "--reps", str(args.reps), "--warm-time", str(args.warm_time), "--tag", args.tag]
+            if args.no_trigger:
+                cmd += ["--no-trigger"]
             if args.skin_factor is not None:
                 cmd += ["--skin-factor", str(args.skin_factor)]
             if args.rebuild_every is not None:

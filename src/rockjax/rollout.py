@@ -6,6 +6,15 @@ This module owns the differentiable time loop. A *block* is: rebuild the neighbo
 ``n_blocks`` blocks, i.e. ``n_blocks * config.rebuild_every`` steps. Trip counts are fixed
 (``lax.scan`` only, no ``while_loop``), so ``jax.grad``, ``jax.jvp`` and ``jax.vmap`` go through.
 
+Displacement-triggered rebuilds (``rebuild_on_displacement=True``, the default): before each step
+of a block the list is also rebuilt (``lax.cond``) when the positions that step will produce,
+``x + dt (v + dt/2 a)`` (exact for the fluid's kick-drift), would move any particle more than
+``skin / 2`` from where the list was built (``needs_rebuild``). So a list is never used stale,
+``rebuild_every`` becomes the longest a list is kept, and a small skin (fewer neighbour slots) can
+be run with long blocks: the list is rebuilt only as often as the flow requires. Under ``jax.vmap``
+the ``cond`` becomes a select that evaluates the rebuild every step (correct, but slow): ensembles
+should pass ``rebuild_on_displacement=False`` with a skin that covers ``rebuild_every`` steps.
+
 Memory of reverse mode (``checkpoint=True``). Three nested levels, each under ``jax.checkpoint``:
 
 * outer scan over ``n_blocks // chunk`` *chunks* (it stores one State per chunk),
@@ -29,9 +38,27 @@ import jax
 import jax.numpy as jnp
 
 from .step import advance, refresh
-from .types import Config, Params, State
+from .types import Config, Kind, Params, State
 
-__all__ = ["make_rollout", "rollout", "n_blocks_for", "default_chunk"]
+__all__ = ["make_rollout", "rollout", "n_blocks_for", "default_chunk", "needs_rebuild"]
+
+
+def needs_rebuild(state: State, config: Config) -> jax.Array:
+    """Whether the next step would move a particle more than ``skin / 2`` from the list's build
+    positions (bool scalar; no gradient). Predicts ``x + dt (v + dt/2 a)`` for every particle
+    (the fluid's drift exactly; walls at rest do not move; block-carried particles approximately,
+    which ``step.check`` still guards with ``Status.NEIGHBOUR_STALE``)."""
+    if not config.has_particles or state.nbrs is None:
+        return jnp.zeros((), bool)
+    P = jax.lax.stop_gradient(state.particles)
+    dt = config.dt
+    disp = P.x + dt * (P.v + (0.5 * dt) * P.a) - state.nbrs.x_ref
+    g = config.grid
+    if any(g.periodic):
+        L = jnp.asarray(g.lengths, disp.dtype)
+        disp = jnp.where(jnp.asarray(g.periodic), disp - L * jnp.round(disp / L), disp)
+    d2 = jnp.where(P.kind != Kind.PAD, jnp.sum(disp * disp, -1), 0.0)
+    return jnp.max(d2) > (0.5 * config.skin) ** 2
 
 
 def n_blocks_for(config: Config, n_steps: int) -> int:
@@ -52,7 +79,8 @@ def default_chunk(n_blocks: int) -> int:
 
 
 def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
-                 observe: Optional[Callable[[State, Params], object]] = None, chunk: Optional[int] = None):
+                 observe: Optional[Callable[[State, Params], object]] = None, chunk: Optional[int] = None,
+                 rebuild_on_displacement: bool = True):
     """Build ``run(state, params) -> (state, observations)``.
 
     Args:
@@ -65,6 +93,8 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
         chunk: blocks per checkpointed chunk (``checkpoint=True`` only); default
             ``default_chunk(n_blocks)``. If it does not divide ``n_blocks`` the remainder runs as
             one shorter chunk at the end.
+        rebuild_on_displacement: also rebuild within a block when ``needs_rebuild`` (module
+            docstring); False gives the plain fixed schedule (one rebuild per block).
 
     Returns:
         ``run(state, params)`` returning ``(final State, observations or None)``.
@@ -75,6 +105,8 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
     k = config.rebuild_every
 
     def one_step(state, params):
+        if rebuild_on_displacement and config.has_particles:
+            state = jax.lax.cond(needs_rebuild(state, config), lambda s: refresh(s, config), lambda s: s, state)
         return advance(state, params, config)
 
     if checkpoint:
@@ -127,6 +159,7 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
 
 
 def rollout(config: Config, state: State, params: Params, n_blocks: int, *, checkpoint: bool = True,
-            observe=None, chunk: Optional[int] = None):
+            observe=None, chunk: Optional[int] = None, rebuild_on_displacement: bool = True):
     """Functional form of ``make_rollout(config, n_blocks, ...)(state, params)``."""
-    return make_rollout(config, n_blocks, checkpoint=checkpoint, observe=observe, chunk=chunk)(state, params)
+    return make_rollout(config, n_blocks, checkpoint=checkpoint, observe=observe, chunk=chunk,
+                        rebuild_on_displacement=rebuild_on_displacement)(state, params)
