@@ -1,4 +1,4 @@
-"""Command line: ``rockjax list`` and ``rockjax run NAME_OR_FILE [--t-end T] [--dx DX] [--scheme S]
+"""Command line: ``rockjax list``, ``rockjax plot RUN.h5 [--out-dir D]`` and ``rockjax run NAME_OR_FILE [--t-end T] [--dx DX] [--scheme S]
 [--coupling C] [--out run.h5] [--frame-dt DT] [--dry-run] [--quiet]``.
 
 ``run`` takes a built-in scene name (``rockjax list``) or a TOML scene file (a path ending in
@@ -23,6 +23,7 @@ _EPILOG = """examples:
   rockjax run dam_break --dx 0.05 --t-end 0.5    a built-in scene at a coarse resolution
   rockjax run examples/box_off_ramp.toml --dry-run
   rockjax run examples/box_off_ramp.toml --out run.h5
+  rockjax plot run.h5                            PNGs: gauges, run-up, block paths, energy
 scene files: examples/*.toml (every built-in scene, and general scenes); format in
 rockjax/scenes/scenefile.py. Units are SI (m, s, kg/m^3)."""
 
@@ -129,6 +130,22 @@ def _add_run(sub) -> None:
     p.set_defaults(func=_cmd_run)
 
 
+def _cmd_plot(args) -> int:
+    from .plots import main as plot_main
+
+    return plot_main(args)
+
+
+def _add_plot(sub) -> None:
+    p = sub.add_parser("plot", help="write PNG figures of a run (gauges, run-up, block trajectories, energy)",
+                       description="Write PNG figures of a run written by `rockjax run --out run.h5`: gauge time "
+                                   "series, run-up over time, block trajectories, energy budget. A figure whose "
+                                   "data the run lacks is skipped (reason on stderr).")
+    p.add_argument("run", metavar="RUN.h5", help="HDF5 file written by `rockjax run --out`")
+    p.add_argument("--out-dir", default=None, help="folder for the PNGs (default: the run file's folder)")
+    p.set_defaults(func=_cmd_plot)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``rockjax`` argument parser: one ``_add_<command>(sub)`` per subcommand."""
     parser = argparse.ArgumentParser(prog="rockjax", description="Differentiable SPH + 3D-DDA rock-slide simulator",
@@ -136,7 +153,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
     _add_list(sub)
     _add_run(sub)
-    # `rockjax plot run.h5`: the lead adds `p_plot = sub.add_parser("plot", ...)` calling rockjax.plots.main(args)
+    _add_plot(sub)
     return parser
 
 

@@ -1,9 +1,11 @@
 """Built-in scenes. Each builder takes keyword-only arguments in SI units (resolution ``dx``)
-and returns a ``Scene``; ``BUILTIN`` maps CLI names to builders."""
+and returns a ``Scene``; ``BUILTIN`` maps CLI names to builders; ``load_scene`` / ``load_file``
+read a scene described in a TOML file (``rockjax.scenes.scenefile``)."""
 
 from .base import Scene, check_params, stable_dt
 from .coupled import block_drop, block_on_incline, floating_box, piston_wavemaker, sliding_wedge
 from .fluid import dam_break, hydrostatic_tank
+from .scenefile import load as load_file, load_scene
 
 BUILTIN = {
     "sliding_wedge": sliding_wedge,
@@ -16,4 +18,4 @@ BUILTIN = {
 }
 
 __all__ = ["Scene", "BUILTIN", "dam_break", "hydrostatic_tank", "sliding_wedge", "piston_wavemaker",
-           "floating_box", "block_drop", "block_on_incline", "check_params", "stable_dt"]
+           "floating_box", "block_drop", "block_on_incline", "check_params", "stable_dt", "load_scene", "load_file"]
