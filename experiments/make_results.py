@@ -412,7 +412,7 @@ def sec_stress(doc: Doc):
     doc.src("stress.jsonl")
     runs = [r for r in recs if r.get("kind") == "stress_run"]
     for r in runs[-1:]:
-        doc.p(f"Last run: {r.get('date')}, {fmt(r.get('tests'))} tests, {fmt(r.get('failures'))} failed, "
+        doc.p(f"Last run: {r.get('date')} ({fmt(r.get('junit_files', 1))} pytest run(s)), {fmt(r.get('tests'))} tests, {fmt(r.get('failures'))} failed, "
               f"{fmt(r.get('xfailed'))} xfailed, {fmt(r.get('skipped'))} skipped, wall time {fmt(r.get('wall_s'))} s "
               f"(load {fmt(r.get('load_avg_1m'))}, {r.get('machine')}).")
         rows = [[t["name"], t["outcome"], t["time_s"], t.get("message", "")[:160]] for t in r.get("cases", [])]
@@ -423,14 +423,19 @@ SECTIONS = [sec_sph, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_
             sec_wedge, sec_stress]
 
 
-def stress_record(junit: str, *, wall_s: float | None) -> dict:
-    """A ``stress_run`` record from a pytest JUnit XML file."""
+def stress_record(junits: list[str], *, wall_s: float | None) -> dict:
+    """A ``stress_run`` record from pytest JUnit XML files (one run, or one per test file)."""
     import xml.etree.ElementTree as ET
 
-    root = ET.parse(junit).getroot()
-    suite = root if root.tag == "testsuite" else root.find("testsuite")
     cases = []
-    for tc in suite.iter("testcase"):
+    total = 0.0
+    tcs = []
+    for junit in junits:
+        root = ET.parse(junit).getroot()
+        suite = root if root.tag == "testsuite" else root.find("testsuite")
+        total += float(suite.get("time", 0.0))
+        tcs += list(suite.iter("testcase"))
+    for tc in tcs:
         outcome, msg = "passed", ""
         for tag in ("failure", "error", "skipped"):
             el = tc.find(tag)
@@ -446,7 +451,7 @@ def stress_record(junit: str, *, wall_s: float | None) -> dict:
             "tests": len(cases), "failures": sum(c["outcome"] in ("failure", "error") for c in cases),
             "xfailed": sum(c["outcome"] == "xfailed" for c in cases),
             "skipped": sum(c["outcome"] == "skipped" for c in cases),
-            "wall_s": wall_s if wall_s is not None else round(float(suite.get("time", 0.0)), 1), "cases": cases}
+            "wall_s": wall_s if wall_s is not None else round(total, 1), "junit_files": len(junits), "cases": cases}
 
 
 def _cpu_model() -> str:
@@ -464,8 +469,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--results", default=os.path.join(ROOT, "experiments", "results"))
     ap.add_argument("--out", default=os.path.join(ROOT, "experiments", "RESULTS.md"))
-    ap.add_argument("--stress-junit", default=None,
-                    help="append a stress_run record from this pytest JUnit XML to results/stress.jsonl first")
+    ap.add_argument("--stress-junit", nargs="+", default=None,
+                    help="append a stress_run record from these pytest JUnit XML files to results/stress.jsonl first")
     ap.add_argument("--stress-wall-s", type=float, default=None, help="wall time of that pytest run (s)")
     args = ap.parse_args(argv)
     if args.stress_junit:
