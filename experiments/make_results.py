@@ -263,6 +263,15 @@ def sec_peers(doc: Doc):
                          "run" if r.get("source") == "measured" else "recorded"])
         doc.p(table(["code", "scheme", "size", "n_fluid", "steps", "dt [s]", "wall s", "fluid p-steps/s",
                      "p-steps per CPU s", "sim-s / wall-s", "foreign cpu", "peer figure"], rows))
+        busy = [r for r in ours if (r.get("foreign_cpu") or 0) > 0.2]
+        if busy:
+            doc.p(f"**Caveat:** {len(busy)} of the {len(ours)} rockjax runs had other processes using "
+                  f"{fmt(min(r['foreign_cpu'] for r in busy))}-{fmt(max(r['foreign_cpu'] for r in busy))} of the "
+                  "2 cores while they were timed (peers: < 0.05), so their wall-clock figures and the wall-clock "
+                  "ratios below understate rockjax by up to the share of the machine it got; the per-CPU-second "
+                  "ratio (work per CPU second of the process, all threads) is the fairer comparison, and still "
+                  "a lower bound for rockjax (contention also costs CPU time). Re-run on a quiet machine, "
+                  "ideally with `--run-peers`, for the like-for-like wall-clock ratio.")
         if ratios:
             rows = [[r["size"], r["rockjax_scheme"], f"{r['peer']} {r['peer_scheme']}", r["particle_steps_ratio"],
                      r.get("cpu_particle_steps_ratio"), r["sim_time_ratio"], r.get("peer_source")] for r in ratios]

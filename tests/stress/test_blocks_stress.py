@@ -105,20 +105,21 @@ def test_deep_overlap_is_reported_and_finite(depth_frac):
     assert gap > 0.2 - 0.01, gap  # separated (within 5 % of a block) or flung apart
 
 
-@settings(max_examples=8, deadline=None, derandomize=True,
+@settings(max_examples=6, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 2**31 - 1), density=st.floats(1500.0, 4000.0), speed=st.floats(0.0, 10.0),
        size=st.floats(0.1, 0.4))
 def test_random_block_scenes(seed, density, speed, size):
     """Three random convex blocks (box / wedge / hexagonal prism topologies, random affine shapes,
     ``size`` 0.1-0.4 m, density 1500-4000 kg/m^3) thrown at ``speed`` (0-10 m/s, random
-    directions, random spin up to 10 rad/s) onto a floor and at each other, 0.5 s. The run ends
+    directions, random spin up to 10 rad/s) onto a floor and at each other from <= 0.35 m above it,
+    0.3 s (dt = stable_dt rounded down to a power of 2: 1e4-3e4 steps). The run ends
     either cleanly (all finite, status 0) or with a SimulationError whose bits are among the
     documented fatal ones (BLOCK_PENETRATION for a contact deeper than 10 % of the block radius)
     with every value finite at the step it names -- never NaN, never silent."""
     rng = np.random.default_rng(seed)
     polys = [slab(4.0, 4.0, 0.3)] + [random_block(rng, kd, size) for kd in ("box", "wedge", "hexprism")]
-    pos = [[0.0, 0.0, -0.15]] + [[(i - 1) * 0.5 * size * 2.2, 0.0, 0.6 * size + 0.05 + 0.3 * i] for i in range(3)]
+    pos = [[0.0, 0.0, -0.15]] + [[(i - 1) * 1.5 * size, 0.0, 0.7 * size + 0.02 + 0.1 * i] for i in range(3)]
     dirs = rng.normal(size=(3, 3))
     dirs[:, 2] = -np.abs(dirs[:, 2])
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
@@ -131,7 +132,7 @@ def test_random_block_scenes(seed, density, speed, size):
     # dt rounded down to a power of 2 (still <= the stable step): few distinct static configs, few compiles
     scene = scene.replace(config=scene.config.replace(dt=2.0 ** math.floor(math.log2(scene.config.dt))))
     try:
-        res = rj.simulate(scene, t_end=0.5, frame_dt=0.05, progress=False)
+        res = rj.simulate(scene, t_end=0.3, frame_dt=0.1, progress=False)
     except rj.SimulationError as e:
         fatal = e.status & ~int(rj.Status.growable())
         print(f"\nrandom blocks seed {seed}: stopped: {e}")
