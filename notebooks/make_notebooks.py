@@ -43,7 +43,7 @@ three wave gauges on the flat, the run-up on the far beach, and the wedge's traj
 
 **Resolution switch.** `ROCKJAX_NB_FAST=1` (the default, used by the tests) runs a tiny version:
 a 0.2 m wedge on a 40 degree slope into 0.2 m of water at `dx = 0.05` m (408 water particles),
-0.8 s of simulated time -- coarse, only to show the workflow.
+1.0 s of simulated time -- coarse, only to show the workflow.
 `ROCKJAX_NB_FAST=0` runs the scene's default geometry (0.4 m wedge, 25 degree slope, 0.4 m of
 water, 1 m flat, 30 degree beach) at `dx = 0.04` m for 1.5 s. See `notebooks/README.md` for the
 measured run times.
@@ -60,7 +60,7 @@ from rockjax.observables import scene_observer
 
 if FAST:
     scene_kw = """ + TINY + """
-    T_END = 0.8
+    T_END = 1.0
 else:
     scene_kw = dict(dx=0.04)   # everything else: the builder's defaults (the seed's geometry)
     T_END = 1.5
@@ -122,7 +122,8 @@ ax[0].set_aspect("equal"); ax[0].set_xlabel("x [m]"); ax[0].set_ylabel("z [m]");
 ax[1].plot(t, speed)
 ax[1].set_xlabel("t [s]"); ax[1].set_ylabel("down-slope speed [m/s]")
 fig.tight_layout(); plt.show()
-print(f"wedge travelled {s[-1]:.3f} m down the slope; final speed {speed[-1]:.2f} m/s")
+print(f"wedge travelled {s[-1]:.3f} m down the slope (the toe is {scene.meta['water_depth'] / np.sin(th):.3f} m "
+      f"from the shoreline); top speed {speed.max():.2f} m/s, final {speed[-1]:.2f} m/s")
 """),
     md("""
 A snapshot of the last frame: water particles (coloured by speed) and the wedge centroid path, seen
@@ -191,7 +192,9 @@ MAX_ITER = 4 if FAST else 50
 N_STEPS = 248           # 31 neighbour-list blocks of 8 steps
 FIELDS = ["blocks.density[0]", "blocks.friction_angle"]
 
-scene = rj.scenes.sliding_wedge(**""" + TINY + """, friction_angle_deg=15.0, block_density=2500.0)
+scene = rj.scenes.sliding_wedge(dx=0.05, slope_angle_deg=40.0, block_length=0.2, block_width=0.2, water_depth=0.2,
+                                flat_length=0.4, flume_width=0.4, start_distance=0.0,
+                                friction_angle_deg=15.0, block_density=2500.0)
 print(f"{scene.config.n_fluid} water particles, dt = {scene.config.dt:.3g} s, "
       f"{N_STEPS} steps = {N_STEPS * scene.config.dt:.3f} s")
 """),
@@ -271,7 +274,7 @@ for f in FIELDS:
 ax[1].axhline(0.01, color="k", lw=0.8, ls="--", label="1 %")
 ax[1].set_xlabel("iteration"); ax[1].set_ylabel("|value / truth - 1|"); ax[1].legend(fontsize=8)
 for j, name in ((1, "gauge x=0.15 m"), (2, "gauge x=0.30 m")):
-    ax[2].plot(tt, 1000 * target[:, j], "k-", lw=2, alpha=0.4, label=f"{name}: data" if j == 1 else "data")
+    ax[2].plot(tt, 1000 * target[:, j], "k-", lw=2, alpha=0.4, label="data" if j == 1 else None)
     ax[2].plot(tt, 1000 * np.asarray(start_obs)[:, j], ":", label=f"{name}: start")
     ax[2].plot(tt, 1000 * np.asarray(fit_obs)[:, j], "--", label=f"{name}: fitted")
 ax[2].set_xlabel("t [s]"); ax[2].set_ylabel("surface elevation [mm]"); ax[2].legend(fontsize=7)
@@ -291,8 +294,8 @@ one member (`ensembles.ensemble`). Here the slide's density and friction angle a
 maximum run-up on the far beach is recorded for each member.
 
 **Resolution switch.** `ROCKJAX_NB_FAST=1` (CI): the tiny wedge (`dx = 0.05` m, 408 water
-particles), 4 members, 0.6 s each -- the distribution of 4 coarse runs only shows the workflow.
-`ROCKJAX_NB_FAST=0`: the same tiny scene with 32 members and 0.8 s each. See
+particles) in a short flume (0.2 m flat, 0.3 m wide), 4 members, 0.7 s each -- the distribution
+of 4 coarse runs only shows the workflow. `ROCKJAX_NB_FAST=0`: the same scene with 32 members. See
 `notebooks/README.md` for the measured times.
 """),
     code(SWITCH),
@@ -310,9 +313,10 @@ from rockjax.calibrate import observed
 from rockjax.observables import runup
 
 N_MEMBERS = 4 if FAST else 32
-T_END = 0.6 if FAST else 0.8
+T_END = 0.7   # s: the wave reaches the beach (0.44 m from the shoreline) at about 0.4 s
 
-scene = rj.scenes.sliding_wedge(**""" + TINY + """)
+scene = rj.scenes.sliding_wedge(dx=0.05, slope_angle_deg=40.0, block_length=0.2, block_width=0.2, water_depth=0.2,
+                                flat_length=0.2, flume_width=0.3, start_distance=0.0)
 cfg = scene.config
 k = cfg.rebuild_every
 n_steps = k * round(T_END / (cfg.dt * k))      # a whole number of neighbour-list blocks
@@ -380,6 +384,8 @@ several hosts with `jax.distributed`; see the `rockjax.ensembles` docstring).
 
 def write(name: str, cells, *, slow: bool = False):
     nb = new_notebook(cells=cells)
+    for i, cell in enumerate(nb.cells):  # stable ids: regenerating an unchanged notebook changes nothing
+        cell.id = f"{pathlib.Path(name).stem}-{i}"
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
     nb.metadata["language_info"] = {"name": "python"}
     if slow:
@@ -390,5 +396,5 @@ def write(name: str, cells, *, slow: bool = False):
 
 if __name__ == "__main__":
     write("quickstart.ipynb", QUICKSTART)
-    write("calibration.ipynb", CALIBRATION)
+    write("calibration.ipynb", CALIBRATION, slow=True)  # measured 9 min on a loaded 2-core machine: slow set
     write("ensembles.ipynb", ENSEMBLES)
