@@ -300,7 +300,11 @@ def sec_blocks(doc: Doc):
     doc.src("bench_blocks.jsonl")
     ours = {r["n_blocks"]: r for r in recs if r.get("bench") == "blocks_pile"}
     mj = {r["n_blocks"]: r for r in recs if r.get("bench") == "mujoco_pile"}
-    doc.p(f"Machine: {_machine_of(list(ours.values()))}.")
+    loads = sorted({r.get("load_avg_1m_at_save") for r in recs if r.get("load_avg_1m_at_save") is not None})
+    doc.p(f"Machine: {_machine_of(list(ours.values()))}."
+          + (f" Load average when saved: {', '.join(fmt(x) for x in loads)} (shared machine; both codes timed "
+             "in the same process one after the other, MuJoCo on 1 thread)."
+             if loads else ""))
     rows = []
     for n in sorted(ours):
         r, m = ours[n], mj.get(n, {})
