@@ -423,6 +423,12 @@ def sec_stress(doc: Doc):
         return
     recs = load(p)
     doc.src("stress.jsonl")
+    per_file = [r for r in recs if r.get("kind") == "stress_run_per_file"]
+    for r in per_file[-1:]:
+        doc.p(f"Per-file runs of {r.get('date')} ({r.get('machine')}, load average {r.get('load_avg_1m_range')}): "
+              f"wall {fmt(r.get('wall_s_sum'))} s in all, process CPU {fmt(r.get('cpu_s_sum'))} s. {r.get('note', '')}.")
+        rows = [[f["file"], f["summary"], f["wall_s"], f["cpu_s"], f.get("note", "")] for f in r.get("files", [])]
+        doc.p(table(["test", "pytest summary", "wall s", "CPU s", "measured"], rows))
     runs = [r for r in recs if r.get("kind") == "stress_run"]
     for r in runs[-1:]:
         doc.p(f"Last run: {r.get('date')} ({fmt(r.get('junit_files', 1))} pytest run(s)), {fmt(r.get('tests'))} tests, {fmt(r.get('failures'))} failed, "
