@@ -27,7 +27,8 @@ cures it (``driver._grow``) and the case is rerun, the final capacities are repo
 
 Usage: ``python experiments/bench_sph.py [--sizes 5k 20k 80k] [--schemes wcsph seed]
 [--blocks 4] [--reps 3] [--skin-factor 0.6] [--rebuild-every 8] [--warm-time 0.3] [--no-trigger]
-[--tag NAME]``.
+[--tag NAME]``; ``--ab 0.6:8:0 0.3:32:1 ...`` (SKIN:REBUILD_EVERY:TRIGGER) times those settings
+interleaved in one process (first size only; the fair comparison on a shared machine).
 Sizes follow the peers (``shared/peers/common.py``): a = 0.5 m column of 2 nx^3 particles,
 nx = 14, 22, 34 (5488, 21296, 78608 fluid particles); ``160k`` is nx = 43.
 """
@@ -152,6 +153,59 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
     }
 
 
+def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: float = 0.0, tag: str = "") -> dict:
+    """Interleaved A/B in one process: for each spec ``SKIN:K:TRIGGER`` (skin / dx, rebuild_every,
+    0/1) a chunk of ``steps`` steps (a multiple of every K) from the same initial state; reps are
+    interleaved so the variants see the same machine load. Returns one record with per-spec
+    best wall and median CPU ms per step and the rebuild counts."""
+    import jax
+
+    import rockjax as rj
+    from rockjax.driver import _grow, resize
+    from rockjax.rollout import make_rollout
+    from rockjax.step import prime
+
+    nx = SIZES[size]
+    runs = {}
+    for spec in specs:
+        skin, k, trig = spec.split(":")
+        scene = rj.scenes.dam_break(dx=0.5 / nx, skin_factor=float(skin), rebuild_every=int(k))
+        config, params, state0 = scene.config, scene.params, scene.state
+        for _ in range(6):  # cure capacity bits the way the driver does
+            state = jax.jit(lambda s, p, c=config: prime(s, p, c))(state0, params)
+            run = jax.jit(lambda s, p, c=config, t=bool(int(trig)): make_rollout(
+                c, steps // c.rebuild_every, checkpoint=False, rebuild_on_displacement=t)(s, p)[0])
+            w = 0
+            while w * config.dt < warm_time - 1e-12:
+                state = run(state, params)
+                w += steps
+            out = jax.block_until_ready(run(state, params))
+            bits = int(out.status) | int(state.status)
+            if not bits:
+                break
+            if bits & ~int(rj.Status.growable()):
+                raise RuntimeError(f"{spec}: {rj.Status.describe(bits)}")
+            config = _grow(config, out if int(out.status) else state, bits)
+            state0 = resize(state0, config)
+        nf = scene.counts()["fluid"]
+        runs[spec] = dict(run=run, state=state, params=params, K=config.neighbour_capacity,
+                          k=config.rebuild_every, walls=[], cpus=[])
+    for _ in range(reps):
+        for spec, r in runs.items():
+            c0, w0 = _cpu(), time.perf_counter()
+            jax.block_until_ready(r["run"](r["state"], r["params"]))
+            r["walls"].append(time.perf_counter() - w0)
+            r["cpus"].append(_cpu() - c0)
+    res = {}
+    for spec, r in runs.items():
+        wall = min(r["walls"])
+        res[spec] = {"K": r["K"], "rebuild_every": r["k"], "ms_per_step": round(1e3 * wall / steps, 2),
+                     "cpu_ms_per_step": round(1e3 * sorted(r["cpus"])[len(r["cpus"]) // 2] / steps, 2),
+                     "fluid_particle_steps_per_s": round(nf * steps / wall)}
+    return {"bench": "sph_dam_break_3d_ab", "tag": tag, "size": size, "n_fluid": nf, "steps": steps, "reps": reps,
+            "warm_s": warm_time, "specs": res, "load_after": round(os.getloadavg()[0], 2), "jax": jax.__version__}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", nargs="+", default=["5k", "20k", "80k"], choices=list(SIZES))
@@ -163,10 +217,17 @@ def main(argv=None):
     ap.add_argument("--warm-time", type=float, default=0.0, help="simulated seconds to run before timing")
     ap.add_argument("--no-trigger", action="store_true", help="fixed rebuild schedule (no displacement trigger)")
     ap.add_argument("--tag", default="", help="label stored in each record")
+    ap.add_argument("--ab", nargs="+", metavar="SKIN:K:TRIGGER",
+                    help="interleaved in-process A/B of these settings (first size only), e.g. 0.6:8:0 0.3:32:1")
+    ap.add_argument("--ab-steps", type=int, default=32)
     ap.add_argument("--case", nargs=2, metavar=("SIZE", "SCHEME"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     opts = dict(blocks=args.blocks, reps=args.reps, skin_factor=args.skin_factor, rebuild_every=args.rebuild_every,
                 warm_time=args.warm_time, trigger=not args.no_trigger, tag=args.tag)
+    if args.ab:
+        print(json.dumps(ab_case(args.sizes[0], args.ab, steps=args.ab_steps, reps=args.reps,
+                                 warm_time=args.warm_time, tag=args.tag)), flush=True)
+        return
     if args.case:
         print(json.dumps(run_case(args.case[0], args.case[1], **opts)), flush=True)
         return
