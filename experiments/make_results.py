@@ -432,7 +432,7 @@ def sec_stress(doc: Doc):
     runs = [r for r in recs if r.get("kind") == "stress_run"]
     for r in runs[-1:]:
         doc.p(f"Last run: {r.get('date')} ({fmt(r.get('junit_files', 1))} pytest run(s)), {fmt(r.get('tests'))} tests, {fmt(r.get('failures'))} failed, "
-              f"{fmt(r.get('xfailed'))} xfailed, {fmt(r.get('skipped'))} skipped, wall time {fmt(r.get('wall_s'))} s "
+              f"{fmt(r.get('xfailed'))} xfailed, {fmt(r.get('skipped'))} skipped, wall time {fmt(r.get('wall_s'))} s, CPU {fmt(r.get('cpu_s'))} s "
               f"(load {fmt(r.get('load_avg_1m'))}, {r.get('machine')}).")
         rows = [[t["name"], t["outcome"], t["time_s"], t.get("message", "")[:160]] for t in r.get("cases", [])]
         doc.p(table(["test", "outcome", "time s", "message"], rows))
