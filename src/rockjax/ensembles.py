@@ -204,11 +204,16 @@ def run_ensemble(scene, params_batch: Params, n_steps: int, observable: Callable
         shard, mesh: split the members over devices (see ``ensemble``).
         checkpoint: use the checkpointed rollout (only useful under a gradient).
 
+    Members rebuild their neighbour lists on the fixed ``rebuild_every`` schedule (a
+    displacement trigger would rebuild at every step under ``vmap``); a member whose list went
+    stale has ``Status.NEIGHBOUR_STALE`` in its final state's ``status``.
+
     Returns:
         the observable with a leading axis n.
     """
     def one(params, state):
-        s = observed(scene, params, n_steps, None, state=state, checkpoint=checkpoint)[0]
+        s = observed(scene, params, n_steps, None, state=state, checkpoint=checkpoint,
+                     rebuild_on_displacement=False)[0]
         return observable(s, params)
 
     if states is None:
