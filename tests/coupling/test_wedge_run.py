@@ -7,8 +7,13 @@ Slow (about 4-10 min per coupling on 2 cores): ``pytest -m slow tests/coupling/t
 Measured failures are kept as strict xfails with their numbers (2026-11-23, dx 0.04):
 * penalty (seed Eq 22): the wedge stops on the slope at z = -0.16 m (centroid; the floor is at
   -0.40 m) after ~1.45 s although its friction angle (15 deg) is below the slope (25 deg); with
-  boundary particles it slides on to the floor (reached at ~1.56 s). The penalty's fluid load on
-  the resting wedge is (-52, 0, -40) N; the extra resistance is not explained yet.
+  boundary particles it slides on to the floor (reached at ~1.56 s). Statics of the resting wedge
+  explain it: the fluid load (-52, 0, -40) N pushes it up-slope (-30 N) and into the slope
+  (+58 N), so the normal force is 221 N (weight part 163 N) and friction can hold 59 N > the
+  46 N net driving force. The water presses on the top and front faces but none reaches the
+  hypotenuse sealed against the slope (no uplift: real joints carry water pressure). With
+  boundary particles the load is similar, (-69, 0, -85) N at 1.5 s, but the wedge, still moving
+  (0.32 m/s), reaches the floor first.
 * boundary particles: a water particle is found 0.0245 m (0.6 dx) inside the wedge; boundary
   particles repel only through the SPH pressure, which a fast block can overrun.
 """
