@@ -59,9 +59,9 @@ def test_help_mentions_scene_files(capsys):
     assert info.value.code == 0
     out = capsys.readouterr().out
     assert "NAME_OR_FILE" in out and ".toml" in out and "--dry-run" in out
-    # one parser function per subcommand; `plot` is the lead's to add
+    # one parser function per subcommand
     sub = next(a for a in build_parser()._actions if a.dest == "cmd")
-    assert set(sub.choices) == {"list", "run"}
+    assert set(sub.choices) == {"list", "run", "plot"}
 
 
 def test_dry_run_of_a_scene_file(tmp_path, capsys):
