@@ -395,6 +395,18 @@ def sec_piston(doc: Doc):
             for r in recs]
     doc.p(table(["coupling", "dx [m]", "kh", "depth [m]", "stroke [m]", "n_fluid", "H/S", "theory H/S",
                  "rel. error", "wall s", "load"], rows))
+    p = doc.path("piston_decay.json")
+    if not p:
+        doc.missing("piston_decay.json", "python experiments/piston_decay.py")
+        return
+    with open(p) as f:
+        r = json.load(f)
+    doc.src("piston_decay.json")
+    doc.p(f"Wave height against distance from the paddle (coupling {r.get('coupling')}, dx {fmt(r.get('dx'))} m, "
+          f"kh {fmt(r.get('kh'))}, depth {fmt(r.get('depth'))} m, {fmt(r.get('n_fluid'))} water particles; "
+          f"least-squares fit over one-period windows): theory H/S = {fmt(r.get('theory_H_over_S'))}.")
+    rows = [[g["x"], g["x_over_depth"], g["windows"], g["H_over_S_mean"], g["rel_error"]] for g in r.get("gauges", [])]
+    doc.p(table(["gauge x [m]", "x / depth", "windows", "mean H/S", "rel. error"], rows))
 
 
 def sec_wedge(doc: Doc):
