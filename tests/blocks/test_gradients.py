@@ -19,14 +19,6 @@ DT, N = 2.5e-4, 1000
 
 
 @pytest.fixture(scope="module")
-def x64():
-    old = jax.config.jax_enable_x64
-    jax.config.update("jax_enable_x64", True)
-    yield
-    jax.config.update("jax_enable_x64", old)
-
-
-@pytest.fixture(scope="module")
 def scene(x64):
     cfg, par, st, down, _ = incline_scene(theta_deg=30.0, b=0.2, h=0.2, phi_deg=np.degrees(np.arctan(0.3)), s0=-1.0)
     assert st.x.dtype == jnp.float64

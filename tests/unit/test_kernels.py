@@ -20,11 +20,7 @@ SMOOTH = [
 ]
 
 
-@pytest.fixture(scope="module", autouse=True)
-def x64():
-    jax.config.update("jax_enable_x64", True)
-    yield
-    jax.config.update("jax_enable_x64", False)
+pytestmark = pytest.mark.usefixtures("x64")  # float64 for the whole module (tests/conftest.py)
 
 
 @pytest.mark.parametrize("name,w,f", SMOOTH + [("viscosity", K.viscosity_kernel, None)])
