@@ -31,7 +31,9 @@ KH, DEPTH, STROKE, FLAT = 1.0, 0.3, 0.04, 4.0
 GAUGES = [0.3, 0.6, 0.9, 1.2, 1.8]
 
 
-def simulate(dx: float, coupling: str, t_end: float, npz: str) -> None:
+def simulate(dx: float, coupling: str, t_end: float, npz: str, *, alpha=None, wall_viscosity=None) -> None:
+    import jax.numpy as jnp
+
     import rockjax as rj
     from rockjax.observables import scene_observer
 
@@ -39,11 +41,16 @@ def simulate(dx: float, coupling: str, t_end: float, npz: str) -> None:
     scene = rj.scenes.piston_wavemaker(dx=dx, stroke=STROKE, period=T, water_depth=DEPTH, flat_length=FLAT,
                                        beach_slope=0.3, flume_width=7 * dx, coupling=rj.Coupling(coupling),
                                        gauge_x=GAUGES)
+    fl = scene.params.fluid
+    fl = fl.replace(alpha=fl.alpha if alpha is None else jnp.asarray(alpha, fl.alpha.dtype),
+                    wall_viscosity=fl.wall_viscosity if wall_viscosity is None
+                    else jnp.asarray(wall_viscosity, fl.alpha.dtype))
+    scene = scene.replace(params=scene.params.replace(fluid=fl))
     t0 = time.perf_counter()
     res = rj.simulate(scene, t_end=t_end, frame_dt=T / 24, observe=scene_observer(scene.meta), progress=False)
     np.savez(npz, t=res.times, eta=res.observed["gauges"], T=T, gx=GAUGES, theory=linear_theory(KH),
              wall=time.perf_counter() - t0, n=scene.config.n_fluid, dx=dx, coupling=coupling,
-             load=os.getloadavg()[0])
+             load=os.getloadavg()[0], alpha=float(fl.alpha), wall_viscosity=float(fl.wall_viscosity))
 
 
 def analyse(npz: str) -> dict:
@@ -70,6 +77,8 @@ def analyse(npz: str) -> dict:
         r["rel_error"] = None if r["H_over_S_mean"] is None else (r["H_over_S_mean"] - theory) / theory
     return dict(kh=KH, depth=DEPTH, stroke=STROKE, period=T, dx=float(d["dx"]) if "dx" in d else None,
                 coupling=str(d["coupling"]) if "coupling" in d else None, n_fluid=int(d["n"]),
+                alpha=float(d["alpha"]) if "alpha" in d else 0.02,
+                wall_viscosity=float(d["wall_viscosity"]) if "wall_viscosity" in d else 1.0,
                 wall_s=float(d["wall"]), theory_H_over_S=theory, gauges=rows)
 
 
@@ -78,16 +87,20 @@ def main():
     ap.add_argument("--dx", type=float, default=0.03)
     ap.add_argument("--t-end", type=float, default=6.0)
     ap.add_argument("--coupling", default="boundary_particles", choices=["penalty", "boundary_particles"])
+    ap.add_argument("--alpha", type=float, default=None, help="artificial viscosity (default: the scene's)")
+    ap.add_argument("--wall-viscosity", type=float, default=None,
+                    help="viscous factor towards walls/blocks (default: the scene's; 0 = free slip)")
+    ap.add_argument("--out", default=None, help="result JSON (default results/piston_decay.json)")
     ap.add_argument("--from-npz", default=None, help="analyse a saved run instead of simulating")
     ap.add_argument("--npz", default="piston_decay.npz", help="where to save the gauge records")
     a = ap.parse_args()
     npz = a.from_npz
     if npz is None:
-        simulate(a.dx, a.coupling, a.t_end, a.npz)
+        simulate(a.dx, a.coupling, a.t_end, a.npz, alpha=a.alpha, wall_viscosity=a.wall_viscosity)
         npz = a.npz
     rec = analyse(npz)
     print(json.dumps(rec))
-    (HERE / "results" / "piston_decay.json").write_text(json.dumps(rec, indent=1) + "\n")
+    pathlib.Path(a.out or HERE / "results" / "piston_decay.json").write_text(json.dumps(rec, indent=1) + "\n")
 
 
 if __name__ == "__main__":

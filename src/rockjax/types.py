@@ -314,6 +314,10 @@ class FluidParams:
         alpha: Monaghan artificial-viscosity coefficient [-] (WCSPH, ``Viscosity.ARTIFICIAL``).
         nu: kinematic viscosity [m^2/s] (WCSPH laminar term; seed Eq 18 with mu = rho0 nu).
         delta: delta-SPH density-diffusion coefficient [-].
+        wall_viscosity: factor [-] on the viscous term between fluid and non-fluid (wall, block)
+            particles (WCSPH; DualSPHysics' ``ViscoBoundFactor``): 1 treats them like fluid
+            neighbours (an artificial no-slip layer as thick as the artificial viscosity makes it),
+            0 gives free-slip walls (no viscous boundary layer: waves travel undamped by the bed).
     """
 
     rho0: jax.Array
@@ -322,6 +326,7 @@ class FluidParams:
     alpha: jax.Array
     nu: jax.Array
     delta: jax.Array
+    wall_viscosity: jax.Array
 
 
 @_pytree_dataclass

@@ -94,12 +94,14 @@ def tank_walls(lo, hi, dx: float, layers: int, *, periodic=(False, False, False)
 
 
 def water_params(*, dx: float, c0: float, h_factor: float = 1.3, alpha: float = 0.02, nu: float = 1e-6,
-                 delta: float = 0.1, rho0: float = 1000.0, gravity: float = GRAVITY) -> Params:
+                 delta: float = 0.1, rho0: float = 1000.0, gravity: float = GRAVITY,
+                 wall_viscosity: float = 1.0) -> Params:
     """Params for water at resolution ``dx`` [m]: h = h_factor dx, speed of sound c0 [m/s]."""
     dt = float_dtype()
     fluid = FluidParams(
         rho0=jnp.asarray(rho0, dt), c0=jnp.asarray(c0, dt), h=jnp.asarray(h_factor * dx, dt),
         alpha=jnp.asarray(alpha, dt), nu=jnp.asarray(nu, dt), delta=jnp.asarray(delta, dt),
+        wall_viscosity=jnp.asarray(wall_viscosity, dt),
     )
     return Params(gravity=jnp.asarray([0.0, 0.0, -gravity], dt), fluid=fluid)
 
@@ -207,9 +209,10 @@ def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray
                 periodic, surface_z: float | None, c0: float, scheme: Scheme, kernel: KernelKind,
                 viscosity: Viscosity, wall_model: WallModel, density_diffusion: DensityDiffusion,
                 h_factor: float, alpha: float, nu: float, delta: float, skin_factor: float,
-                rebuild_every: int, cfl: float, meta: dict) -> Scene:
+                rebuild_every: int, cfl: float, meta: dict, wall_viscosity: float = 1.0) -> Scene:
     """Assemble a fluid-only scene from host point sets (used by the built-in builders)."""
-    params = water_params(dx=dx, c0=c0, h_factor=h_factor, alpha=alpha, nu=nu, delta=delta)
+    params = water_params(dx=dx, c0=c0, h_factor=h_factor, alpha=alpha, nu=nu, delta=delta,
+                          wall_viscosity=wall_viscosity)
     L = particle_layout(dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=domain_lo, domain_hi=domain_hi,
                         periodic=periodic, surface_z=surface_z, c0=c0, scheme=scheme, h_factor=h_factor,
                         skin_factor=skin_factor)

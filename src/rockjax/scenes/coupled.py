@@ -78,7 +78,8 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
                   friction_angle_deg: float, fluid_x: np.ndarray | None = None, wall_x: np.ndarray | None = None,
                   domain_lo=None, domain_hi=None, periodic=(False, False, False), still_level: float | None = None,
                   coupling: Coupling = Coupling.PENALTY, c0: float | None = None, h_factor: float = 1.3,
-                  alpha: float = 0.02, nu: float = 1e-6, delta: float = 0.1, skin_factor: float = 0.6,
+                  alpha: float = 0.02, nu: float = 1e-6, delta: float = 0.1, wall_viscosity: float = 1.0,
+                  skin_factor: float = 0.6,
                   rebuild_every: int = 8, cfl: float = 0.25, scheme: Scheme = Scheme.WCSPH,
                   velocities=None, block_kwargs: dict | None = None, meta: dict | None = None) -> Scene:
     """Assemble a scene of water (optional) and blocks from host data.
@@ -118,7 +119,8 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     scheme = Scheme(scheme)
     if c0 is None:
         raise ValueError(f"{name}: c0 (speed of sound) is required for a scene with water")
-    params = water_params(dx=dx, c0=c0, h_factor=h_factor, alpha=alpha, nu=nu, delta=delta)
+    params = water_params(dx=dx, c0=c0, h_factor=h_factor, alpha=alpha, nu=nu, delta=delta,
+                          wall_viscosity=wall_viscosity)
     params = params.replace(blocks=bparams)
     layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
     wall_x = np.zeros((0, 3)) if wall_x is None else np.asarray(wall_x, float)
@@ -361,7 +363,8 @@ def block_drop(*, dx: float = 0.02, box_size=(0.1, 0.1, 0.1), box_density: float
 def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float = 1.0, water_depth: float = 0.3,
                      flat_length: float = 2.0, beach_slope: float = 0.04, beach_length: float | None = None,
                      flume_width: float | None = None, periodic_y: bool = True, coupling: Coupling = Coupling.PENALTY,
-                     gauge_x=None, h_factor: float = 1.3, c0: float | None = None) -> Scene:
+                     gauge_x=None, h_factor: float = 1.3, c0: float | None = None, alpha: float = 0.02,
+                     wall_viscosity: float = 1.0) -> Scene:
     """The seed's first example: a piston wave maker, a flat section and a sloping beach.
 
     The piston is a PRESCRIBED block, ``x(t) = x0 + S/2 sin(2 pi t / T)`` (stroke S, period T
@@ -418,8 +421,8 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     return coupled_scene(name="piston_wavemaker", dx=dx, polyhedra=[piston], positions=[pos],
                          motion=(blocks.Motion.PRESCRIBED,), block_density=2500.0, friction_angle_deg=30.0,
                          fluid_x=water, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi, periodic=periodic,
-                         still_level=water_depth, coupling=coupling, c0=c0, h_factor=h_factor,
-                         block_kwargs=dict(stroke=stroke, period=period, prescribed_direction=[(1.0, 0.0, 0.0)]), meta=meta)
+                         still_level=water_depth, coupling=coupling, c0=c0, h_factor=h_factor, alpha=alpha,
+                         wall_viscosity=wall_viscosity, block_kwargs=dict(stroke=stroke, period=period, prescribed_direction=[(1.0, 0.0, 0.0)]), meta=meta)
 
 
 def block_on_incline(*, angle_deg: float = 30.0, friction_angle_deg: float = 20.0, block_size=(0.2, 0.2, 0.1),

@@ -36,7 +36,8 @@ def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width:
               viscosity: Viscosity = Viscosity.ARTIFICIAL, wall_model: WallModel = WallModel.ADAMI,
               density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS,
               h_factor: float = 1.3, c0: float | None = None, alpha: float | None = None, nu: float | None = None,
-              delta: float = 0.1, skin_factor: float = 0.6, rebuild_every: int = 8, cfl: float = 0.25) -> Scene:
+              delta: float = 0.1, wall_viscosity: float = 1.0, skin_factor: float = 0.6, rebuild_every: int = 8,
+              cfl: float = 0.25) -> Scene:
     """A water column collapsing in a tank (3D; with ``periodic_y`` a 2D slab).
 
     The column occupies ``[0, column_length] x [0, column_width] x [0, column_height]`` in the
@@ -50,6 +51,7 @@ def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width:
         c0: speed of sound [m/s]; default 10 sqrt(2 g column_height).
         alpha / nu: artificial viscosity [-] / kinematic viscosity [m^2/s]; defaults depend on
             the scheme (WCSPH 0.02 / 1e-6; seed 0 / 1e-3, as its Eq 18 is its only dissipation).
+        wall_viscosity: factor on the viscous term towards wall particles (0 = free-slip walls).
         h_factor: smoothing length / dx. skin_factor: Verlet skin / dx.
     """
     dx = _positive("dam_break: dx", dx)
@@ -82,7 +84,8 @@ def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width:
                        periodic=periodic, surface_z=column_height, c0=c0, scheme=scheme, kernel=KernelKind(kernel),
                        viscosity=Viscosity(viscosity), wall_model=WallModel(wall_model),
                        density_diffusion=DensityDiffusion(density_diffusion), h_factor=h_factor, alpha=alpha, nu=nu,
-                       delta=delta, skin_factor=skin_factor, rebuild_every=rebuild_every, cfl=cfl, meta=meta)
+                       delta=delta, wall_viscosity=wall_viscosity, skin_factor=skin_factor, rebuild_every=rebuild_every,
+                       cfl=cfl, meta=meta)
 
 
 def hydrostatic_tank(*, dx: float = 0.02, length: float = 0.2, width: float = 0.2, depth: float = 0.2,
@@ -91,7 +94,7 @@ def hydrostatic_tank(*, dx: float = 0.02, length: float = 0.2, width: float = 0.
                      wall_model: WallModel = WallModel.ADAMI,
                      density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS, h_factor: float = 1.3,
                      c0: float | None = None, alpha: float | None = None, nu: float | None = None,
-                     delta: float = 0.1, skin_factor: float = 0.6, rebuild_every: int = 8,
+                     delta: float = 0.1, wall_viscosity: float = 1.0, skin_factor: float = 0.6, rebuild_every: int = 8,
                      cfl: float = 0.25) -> Scene:
     """Still water of ``depth`` [m] in a closed-bottom tank ``length x width`` [m] (open top).
 
@@ -119,4 +122,5 @@ def hydrostatic_tank(*, dx: float = 0.02, length: float = 0.2, width: float = 0.
                        periodic=periodic, surface_z=depth, c0=c0, scheme=scheme, kernel=KernelKind(kernel),
                        viscosity=Viscosity(viscosity), wall_model=WallModel(wall_model),
                        density_diffusion=DensityDiffusion(density_diffusion), h_factor=h_factor, alpha=alpha, nu=nu,
-                       delta=delta, skin_factor=skin_factor, rebuild_every=rebuild_every, cfl=cfl, meta=meta)
+                       delta=delta, wall_viscosity=wall_viscosity, skin_factor=skin_factor, rebuild_every=rebuild_every,
+                       cfl=cfl, meta=meta)

@@ -76,7 +76,8 @@ Form (b): a general scene
     [sph]                              # the water (needed with [[water]])
     dx = 0.02                          # particle spacing, m
     scheme = "wcsph"                   # or "seed"; c0 [m/s] (default 10 x the largest expected
-    # speed), h_factor, alpha, nu [m^2/s], delta, skin_factor, rebuild_every, cfl; kernel,
+    # speed), h_factor, alpha, nu [m^2/s], delta, wall_viscosity (0 = free-slip walls and
+    # blocks), skin_factor, rebuild_every, cfl; kernel,
     # viscosity, wall_model, density_diffusion (water-only scenes; with blocks the defaults hold)
 
     [coupling]                         # water <-> moving blocks
@@ -317,6 +318,7 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
             "scheme": _choice(_enum_values(Scheme), "wcsph"), "c0": _num(unit="m/s", **_POS),
             "h_factor": _num(default=1.3, lo=0.5, hi=3.0), "alpha": _num(**_NONNEG),
             "nu": _num(unit="m^2/s", **_NONNEG), "delta": _num(default=0.1, **_NONNEG),
+            "wall_viscosity": _num(default=1.0, **_NONNEG),
             "skin_factor": _num(default=0.6, **_NONNEG), "rebuild_every": _num("int", 8, lo=1),
             "cfl": _num(default=0.25, lo=0.0, lo_open=True, hi=1.0),
             "kernel": _choice(_enum_values(KernelKind), "wendland_c2"),
@@ -921,7 +923,8 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
     walls_only = [s.name for s, f, _ in fixed if s.polyhedron is None or not f["block"]]
     if walls_only:
         meta["fixed_walls_only"] = walls_only
-    common = dict(h_factor=sph["h_factor"], alpha=alpha, nu=nu, delta=sph["delta"], skin_factor=sph["skin_factor"],
+    common = dict(h_factor=sph["h_factor"], alpha=alpha, nu=nu, delta=sph["delta"],
+                  wall_viscosity=sph["wall_viscosity"], skin_factor=sph["skin_factor"],
                   rebuild_every=sph["rebuild_every"], cfl=sph["cfl"])
     if not moving:
         return fluid_scene(name=name, dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,

@@ -138,15 +138,17 @@ def acceleration(pr: Pairs, v, rho, p, vol, kind, params: Params, config: Config
     coef = -m_j * (p[:nf, None] + take(p, idx)) / (rho_i * rho_j)
     eta2 = 0.01 * h * h
     vij = tuple(v[:nf, a, None] - take(v[:, a], idx) for a in range(3))
+    # viscous factor per pair: 1 between fluid particles, wall_viscosity towards walls and blocks
+    visc = jnp.where(t.kind_j == Kind.FLUID, 1.0, f.wall_viscosity)
     if config.viscosity == Viscosity.ARTIFICIAL:
         vr = vij[0] * d[0] + vij[1] * d[1] + vij[2] * d[2]
         mu = h * vr / (r2 + eta2)
-        pi_ij = jnp.where(vr < 0, (-2.0 * f.alpha * f.c0) * mu / (rho_i + rho_j), 0.0)
+        pi_ij = jnp.where(vr < 0, (-2.0 * f.alpha * f.c0) * visc * mu / (rho_i + rho_j), 0.0)
         cf = (coef - m_j * pi_ij) * F
         acc = [jnp.sum(cf * d[a], axis=1) for a in range(3)]
     else:
         cf = coef * F
-        lam = m_j * 4.0 * f.nu * (F * r2) / ((rho_i + rho_j) * (r2 + eta2))
+        lam = m_j * 4.0 * f.nu * visc * (F * r2) / ((rho_i + rho_j) * (r2 + eta2))
         acc = [jnp.sum(cf * d[a] + lam * vij[a], axis=1) for a in range(3)]
     fluid = kind[:nf] == Kind.FLUID
     acc_f = jnp.where(fluid[:, None], jnp.stack(acc, axis=1) + params.gravity, 0.0)
