@@ -3,7 +3,7 @@
 Runs ``scenes.piston_wavemaker`` as a 2D periodic slab, records the free-surface elevation at a
 gauge > 3 depths from the paddle, and compares the wave height of the steady waves (before the
 beach reflection returns) with H/S = 2 (cosh 2kh - 1) / (sinh 2kh + 2kh), interpolated from
-``data/validation/piston_wavemaker_transfer.csv``.
+``data/validation/piston_wavemaker_transfer.csv`` (``rockjax.validation``).
 
     python experiments/piston_transfer.py --dx 0.03 --kh 1.0 --coupling penalty
 """
@@ -12,28 +12,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
-import pathlib
 import time
 
-import numpy as np
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-G = 9.81
-
-
-def linear_theory(kh: float) -> float:
-    """H/S interpolated from the tabulated transfer function (the CSV in data/validation)."""
-    rows = [ln for ln in (ROOT / "data/validation/piston_wavemaker_transfer.csv").read_text().splitlines()
-            if ln and not ln.startswith("#") and not ln.startswith("kh")]
-    tab = np.array([[float(v) for v in ln.split(",")[:2]] for ln in rows])
-    return float(np.interp(kh, tab[:, 0], tab[:, 1]))
-
-
-def period_for(kh: float, depth: float) -> float:
-    k = kh / depth
-    return 2 * math.pi / math.sqrt(G * k * math.tanh(kh))
+from rockjax.validation import linear_wave, piston_transfer, wave_height
 
 
 def run(*, dx: float, kh: float, depth: float, stroke: float, coupling: str, flat_length: float,
@@ -41,37 +24,26 @@ def run(*, dx: float, kh: float, depth: float, stroke: float, coupling: str, fla
     import rockjax as rj
     from rockjax.observables import scene_observer
 
-    T = period_for(kh, depth)
-    k = kh / depth
-    omega = 2 * math.pi / T
-    cg = 0.5 * omega / k * (1 + 2 * kh / math.sinh(2 * kh))
+    wave = linear_wave(kh, depth)
+    T, cg = wave["period"], wave["cg"]
     x_g = gauge_depths * depth
     scene = rj.scenes.piston_wavemaker(dx=dx, stroke=stroke, period=T, water_depth=depth, flat_length=flat_length,
                                        beach_slope=0.3, flume_width=7 * dx, coupling=rj.Coupling(coupling),
                                        gauge_x=[x_g])
-    # steady waves at the gauge from the front arrival + 1 period, until the reflection off the
-    # beach (~flat_length away) could return
+    # the developed train at the gauge: from the front's arrival + 2 periods (the front is spread
+    # by dispersion) until the reflection off the beach (~flat_length away) could return
     t_arrive = x_g / cg
     t_reflect = (2 * flat_length - x_g) / cg
-    t_end = min(t_reflect, t_arrive + 4 * T) if t_end is None else t_end
+    t_end = t_reflect if t_end is None else t_end
     t0 = time.perf_counter()
     res = rj.simulate(scene, t_end=t_end, frame_dt=T / 24, observe=scene_observer(scene.meta), progress=False)
     wall = time.perf_counter() - t0
     eta = res.observed["gauges"][:, 0]
-    t = res.times
-    # wave height: mean crest-to-trough over whole periods in the window
-    heights = []
-    t_start = t_arrive + T
-    while t_start + T <= t_end + 1e-9:
-        m = (t >= t_start) & (t < t_start + T)
-        if m.sum() > 4:
-            heights.append(eta[m].max() - eta[m].min())
-        t_start += T
-    H = float(np.mean(heights)) if heights else float("nan")
-    theory = linear_theory(kh)
+    H, H2, n = wave_height(res.times, eta, period=T, t_start=t_arrive + 2 * T, t_stop=min(t_end, t_reflect))
+    theory = piston_transfer(kh)
     return dict(kh=kh, depth=depth, period=T, stroke=stroke, dx=dx, coupling=coupling, gauge_x=x_g,
-                n_fluid=scene.config.n_fluid, t_end=t_end, window=[t_arrive + T, t_end], n_periods=len(heights),
-                H=H, H_over_S=H / stroke, theory_H_over_S=theory, rel_error=(H / stroke - theory) / theory,
+                n_fluid=scene.config.n_fluid, t_end=t_end, window=[t_arrive + 2 * T, min(t_end, t_reflect)], n_periods=n,
+                H=H, H_over_S=H / stroke, H2_over_S=H2 / stroke, theory_H_over_S=theory, rel_error=(H / stroke - theory) / theory,
                 wall_s=wall, load=os.getloadavg()[0])
 
 

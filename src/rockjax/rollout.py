@@ -20,18 +20,21 @@ fluid from rest (K 144 vs 160, one build per 32 steps), 1.05-1.2x at 5.5k in the
 (t = 0.3 s: a build every ~4.6 steps, where the fixed 8-step schedule goes stale and the driver
 halves it to 4).
 
-Memory of reverse mode (``checkpoint=True``). Three nested levels, each under ``jax.checkpoint``:
+Memory of reverse mode (``checkpoint=True``). Two nested levels under ``jax.checkpoint``:
 
-* outer scan over ``n_blocks // chunk`` *chunks* (it stores one State per chunk),
-* a chunk: scan over ``chunk`` blocks (recomputed in the backward pass; stores one State per block),
-* a block: scan over ``rebuild_every`` steps (recomputed; stores one State per step), each step
-  recomputed once more for its own vector-Jacobian product.
+* outer scan over ``n_blocks // chunk`` *chunks* (it stores one State per chunk);
+* a chunk (``chunk`` blocks of ``rebuild_every`` steps) is recomputed in the backward pass and
+  stores one State per step (the steps are checkpointed), and each step is recomputed once more
+  for its own vector-Jacobian product.
 
-So reverse mode holds about ``n_blocks / chunk + chunk + rebuild_every`` States plus one step's
-intermediates, at the price of about two extra forward passes. The default ``chunk`` is
-``ceil(sqrt(n_blocks))``, which makes the memory grow like ``sqrt(T)`` in the number of steps T
-(``experiments/bench_grad.py`` measures it). ``checkpoint=False`` is a plain scan of blocks
-(the host driver's forward-only path; no memory saving, nothing recomputed).
+So reverse mode holds about ``n_blocks / chunk + chunk * rebuild_every`` States plus one step's
+intermediates, at the price of two extra forward passes (the chunk's and the step's). The default
+``chunk`` is ``ceil(sqrt(n_blocks))``, which makes the memory grow like ``sqrt(T)`` in the number of
+steps T (``experiments/bench_grad.py`` measures it). A third level (checkpointing each block as
+well, to store one State per block instead of per step) was dropped: it cost one more forward pass
+(measured in ``bench_grad.py``) to save ``rebuild_every - 1`` States per block of the live chunk.
+``checkpoint=False`` is a plain scan of blocks (the host driver's forward-only path; no memory
+saving, nothing recomputed).
 """
 
 from __future__ import annotations
@@ -121,9 +124,6 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
         state = refresh(state, config)
         state, _ = jax.lax.scan(lambda s, _: (one_step(s, params), None), state, None, length=k)
         return state
-
-    if checkpoint:
-        block = jax.checkpoint(block, prevent_cse=False)
 
     def scan_blocks(state, params, length):
         def body(s, _):

@@ -5,6 +5,8 @@ project's ``data/validation`` copy (see that file's header for sources); ``dam_b
 that experiment as a periodic slab, ``dam_break_3d`` as a 3D tank with side walls, and
 ``front_error`` compares a simulated front with it. ``energy_history`` evaluates the total
 energy of every frame of a run (both schemes) for the closed-tank energy checks.
+``piston_transfer``, ``linear_wave`` and ``wave_height`` are the piston wave-maker check: linear
+theory's H/S (tabulated), the dispersion relation, and the height of a recorded wave train.
 """
 
 from __future__ import annotations
@@ -15,7 +17,9 @@ import pathlib
 import numpy as np
 
 __all__ = ["data_dir", "martin_moyce_n2_2", "dam_break_2d", "dam_break_3d", "front_history", "front_error",
-           "energy_history"]
+           "energy_history", "piston_transfer", "linear_wave", "wave_height"]
+
+GRAVITY = 9.81
 
 
 def data_dir() -> pathlib.Path:
@@ -116,3 +120,44 @@ def energy_history(result, *, stride: int = 1) -> dict:
     out = {k: np.asarray(v) for k, v in out.items()}
     out["t"] = np.asarray(result.times)[keep]
     return out
+
+
+def piston_transfer(kh: float) -> float:
+    """Linear piston wave-maker theory H/S = 2 (cosh 2kh - 1) / (sinh 2kh + 2kh) (Dean & Dalrymple
+    1991), interpolated from ``data/validation/piston_wavemaker_transfer.csv`` (source in its header)."""
+    path = data_dir() / "piston_wavemaker_transfer.csv"
+    rows = [ln for ln in path.read_text().splitlines() if ln and not ln.startswith("#") and not ln.startswith("kh")]
+    tab = np.array([[float(v) for v in ln.split(",")[:2]] for ln in rows])
+    return float(np.interp(kh, tab[:, 0], tab[:, 1]))
+
+
+def linear_wave(kh: float, depth: float, *, g: float = GRAVITY) -> dict:
+    """Linear (Airy) wave of relative depth ``kh`` in water ``depth`` [m]: ``k`` [1/m], ``omega``
+    [1/s], ``period`` [s], phase speed ``c`` and group speed ``cg`` [m/s]."""
+    k = kh / depth
+    omega = math.sqrt(g * k * math.tanh(kh))
+    cg = 0.5 * omega / k * (1.0 + 2.0 * kh / math.sinh(2.0 * kh))
+    return dict(k=k, omega=omega, period=2 * math.pi / omega, c=omega / k, cg=cg)
+
+
+def wave_height(t, eta, *, period: float, t_start: float, t_stop: float) -> tuple[float, float, int]:
+    """Height of the wave train ``eta(t)`` [m] at the frequency 2 pi / ``period``.
+
+    Least squares over the whole periods that fit in ``[t_start, t_stop]`` of
+    ``eta ~ a1 sin(w t) + b1 cos(w t) + a2 sin(2 w t) + b2 cos(2 w t) + c0 + c1 t`` (the second
+    harmonic that a sinusoidal paddle makes, and a slow drift of the mean level). Returns
+    ``(H, H2, n_periods)``: the first- and second-harmonic heights ``2 |(a, b)|`` [m] and the number
+    of periods fitted (0, with NaN heights, when not one period fits).
+    """
+    t = np.asarray(t, float)
+    eta = np.asarray(eta, float)
+    n = int(math.floor((t_stop - t_start) / period + 1e-9))
+    if n < 1:
+        return float("nan"), float("nan"), 0
+    m = (t >= t_start) & (t < t_start + n * period)
+    w = 2 * math.pi / period
+    tm = t[m]
+    A = np.stack([np.sin(w * tm), np.cos(w * tm), np.sin(2 * w * tm), np.cos(2 * w * tm), np.ones_like(tm),
+                  tm - tm.mean()], 1)
+    c = np.linalg.lstsq(A, eta[m], rcond=None)[0]
+    return 2 * math.hypot(c[0], c[1]), 2 * math.hypot(c[2], c[3]), n
