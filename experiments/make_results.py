@@ -395,18 +395,27 @@ def sec_piston(doc: Doc):
             for r in recs]
     doc.p(table(["coupling", "dx [m]", "kh", "depth [m]", "stroke [m]", "n_fluid", "H/S", "theory H/S",
                  "rel. error", "wall s", "load"], rows))
-    p = doc.path("piston_decay.json")
+    p = doc.path("piston_decay.jsonl")
     if not p:
-        doc.missing("piston_decay.json", "python experiments/piston_decay.py")
+        doc.missing("piston_decay.jsonl", "python experiments/piston_decay.py")
         return
-    with open(p) as f:
-        r = json.load(f)
-    doc.src("piston_decay.json")
-    doc.p(f"Wave height against distance from the paddle (coupling {r.get('coupling')}, dx {fmt(r.get('dx'))} m, "
-          f"kh {fmt(r.get('kh'))}, depth {fmt(r.get('depth'))} m, {fmt(r.get('n_fluid'))} water particles; "
-          f"least-squares fit over one-period windows): theory H/S = {fmt(r.get('theory_H_over_S'))}.")
-    rows = [[g["x"], g["x_over_depth"], g["windows"], g["H_over_S_mean"], g["rel_error"]] for g in r.get("gauges", [])]
-    doc.p(table(["gauge x [m]", "x / depth", "windows", "mean H/S", "rel. error"], rows))
+    recs = load(p)
+    doc.src("piston_decay.jsonl")
+    doc.p("Wave height against distance from the paddle (kh = 1, depth 0.3 m, stroke 0.04 m, 2D periodic slab, "
+          "`experiments/piston_decay.py`). H/S is fitted (first + second harmonic, mean and drift) over whole "
+          "periods from the front's arrival x / c_g plus 0 or 2 periods (the train develops over a few periods "
+          "after the paddle starts) until the beach reflection could return. `wall visc.` = "
+          "`FluidParams.wall_viscosity` (0: free-slip walls).")
+    rows = []
+    for r in recs:
+        for g in r.get("gauges", []):
+            fits = {f["delay_periods"]: f for f in g.get("fits", [])}
+            f0, f2 = fits.get(0, {}), fits.get(2, {})
+            rows.append([r.get("dx"), r.get("n_fluid"), r.get("alpha"), r.get("wall_viscosity"), r.get("t_end"),
+                         g["x_over_depth"], f0.get("H_over_S"), f2.get("periods"), f2.get("H_over_S"),
+                         f2.get("rel_error"), f2.get("H2_over_S"), r.get("theory_H_over_S")])
+    doc.p(table(["dx [m]", "n_fluid", "alpha", "wall visc.", "t_end [s]", "x / depth", "H/S from arrival",
+                 "periods (developed)", "H/S developed", "rel. error", "2nd harm. H2/S", "theory H/S"], rows))
 
 
 def sec_wedge(doc: Doc):

@@ -7,7 +7,7 @@ paddle frequency, mean and drift) over the whole periods from the front's arriva
 0, 1 or 2 periods until the beach reflection could return. The wave train takes periods to
 develop after the paddle starts (its front is spread by dispersion), so only the late windows
 measure the steady height. Compares H/S with linear theory
-(``rockjax.validation.piston_transfer``). Prints one JSON line and writes ``--out``.
+(``rockjax.validation.piston_transfer``). Prints one JSON line and appends it to ``--out``.
 
     python experiments/piston_decay.py --dx 0.03 --t-end 6.4 --wall-viscosity 0   # ~20 min quiet
     python experiments/piston_decay.py --from-npz run.npz          # re-analyse a saved run
@@ -89,7 +89,8 @@ def main():
     ap.add_argument("--alpha", type=float, default=None, help="artificial viscosity (default: the scene's)")
     ap.add_argument("--wall-viscosity", type=float, default=None,
                     help="viscous factor towards walls/blocks (default: the scene's; 0 = free slip)")
-    ap.add_argument("--out", default=None, help="result JSON (default results/piston_decay.json)")
+    ap.add_argument("--out", default=None, help="JSON-lines file the record is appended to "
+                                                "(default results/piston_decay.jsonl)")
     ap.add_argument("--from-npz", default=None, help="analyse a saved run instead of simulating")
     ap.add_argument("--npz", default="piston_decay.npz", help="where to save the gauge records")
     a = ap.parse_args()
@@ -99,7 +100,9 @@ def main():
         npz = a.npz
     rec = analyse(npz)
     print(json.dumps(rec))
-    pathlib.Path(a.out or HERE / "results" / "piston_decay.json").write_text(json.dumps(rec, indent=1) + "\n")
+    rec["date"] = time.strftime("%Y-%m-%d")
+    with open(a.out or HERE / "results" / "piston_decay.jsonl", "a") as f:
+        f.write(json.dumps(rec) + "\n")
 
 
 if __name__ == "__main__":
