@@ -95,6 +95,8 @@ def main(argv=None):
     ap.add_argument("--f64", action="store_true")
     ap.add_argument("--skip-grad", action="store_true")
     ap.add_argument("--skip-ensemble", action="store_true")
+    ap.add_argument("--checkpoint-blocks", action="store_true",
+                    help="three checkpoint levels (rollout's checkpoint_blocks=True) instead of two")
     args = ap.parse_args(argv)
 
     import jax
@@ -127,7 +129,8 @@ def main(argv=None):
                 return obj(s, p)
 
             def loss(p, n=n, ck=True):
-                s, _ = observed(config, p, n, None, state=state0, checkpoint=ck, prime=False)
+                s, _ = observed(config, p, n, None, state=state0, checkpoint=ck, prime=False,
+                                checkpoint_blocks=args.checkpoint_blocks)
                 return obj(s, p)
 
             f_jit = jax.jit(fwd)
@@ -142,6 +145,7 @@ def main(argv=None):
             t_f = timed(f_jit, scene.params, repeats=args.repeats)
             t_g = timed(g_jit, scene.params, repeats=args.repeats)
             print(json.dumps(dict(base, bench="grad", steps=n, multiple=mult, blocks=n // k,
+                                  checkpoint_levels=3 if args.checkpoint_blocks else 2,
                                   chunk=default_chunk(n // k), forward_s=t_f, grad_s=t_g, grad_over_forward=t_g / t_f,
                                   forward_temp_bytes=mem["forward"]["temp_bytes"],
                                   grad_checkpointed_temp_bytes=mem["grad_checkpointed"]["temp_bytes"],

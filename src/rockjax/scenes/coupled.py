@@ -374,7 +374,9 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     (default 0.3 and 0.6 of the flat). ``periodic_y`` makes the flume a
     thin periodic slab (a 2D flume experiment; ``flume_width`` defaults to 7 dx then, the
     narrowest period the neighbour search allows, else to 0.1 m). The paper's scale (70 m flat, ~65k particles) is
-    ``dx`` ~0.1 with ``flat_length=70``; the default is a small flume for tests.
+    ``dx`` ~0.1 with ``flat_length=70``; the default is a small flume for tests. ``alpha``: artificial
+    viscosity; ``wall_viscosity``: its factor towards the bed, walls and paddle (0 = free slip; see
+    ``FluidParams``).
     """
     dx = _positive("piston_wavemaker: dx", dx)
     if flume_width is None:
