@@ -19,16 +19,20 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .rollout import make_rollout
+from .rollout import make_rollout, needs_rebuild
 from .scenes.base import Scene, check_params, empty_neighbours
-from .step import prime
+from .step import advance, prime, refresh
 from .types import Config, Kind, State, Status
 
 __all__ = ["simulate", "Result", "SimulationError", "host_frame", "resize", "check_block_dt"]
 
 
 class SimulationError(RuntimeError):
-    """A run stopped on a fatal status bit; ``step`` and ``status`` say where and why."""
+    """A run stopped on a fatal status bit; ``step`` and ``status`` say where and why.
+
+    ``step`` is the first step that set a fatal bit (the driver replays the failed chunk one step
+    at a time to find it); ``status`` holds the bits OR-ed over the chunk.
+    """
 
     def __init__(self, message: str, *, step: int, status: int):
         super().__init__(message)
@@ -93,6 +97,32 @@ def resize(state: State, config: Config) -> State:
 def _compiled_chunk(config: Config, n_blocks: int):
     run = make_rollout(config, n_blocks, checkpoint=False)
     return jax.jit(lambda s, p: run(s, p)[0])
+
+
+@functools.lru_cache(maxsize=8)
+def _compiled_single_step(config: Config):
+    """One step exactly as ``make_rollout`` takes it (rebuild at a block start or when the
+    displacement trigger fires, then advance), for replaying a failed chunk step by step."""
+
+    def one(state, params):
+        due = (state.step % config.rebuild_every == 0) | needs_rebuild(state, config)
+        state = jax.lax.cond(due, lambda s: refresh(s, config), lambda s: s, state)
+        return advance(state, params, config)
+
+    return jax.jit(one)
+
+
+def _first_bad_step(config: Config, start_state: State, params, bad_state: State, mask: int) -> int:
+    """The first step whose status has a bit of ``mask``: the chunk from ``start_state`` (status
+    clear) replayed one step at a time (only after a chunk failed). Falls back to the chunk's
+    last step if the replay does not reproduce the bit."""
+    step = _compiled_single_step(config)
+    state = start_state
+    for _ in range(int(bad_state.step) - int(start_state.step)):
+        state = step(state, params)
+        if int(state.status) & mask:
+            return int(state.step)
+    return int(bad_state.step)
 
 
 @functools.lru_cache(maxsize=32)
@@ -253,6 +283,8 @@ def _handle(config, bad_state, start_state, params, bits, regrows, max_regrows, 
     fatal = bits & ~int(Status.growable())
     if fatal:
         step = int(bad_state.step)
+        if primed and step > int(start_state.step) + 1:
+            step = _first_bad_step(config, start_state, params, bad_state, fatal)
         raise SimulationError(
             f"simulation stopped at step {step} (t = {step * config.dt:.6g} s): {Status.describe(fatal)}. "
             + _advice(fatal), step=step, status=bits)

@@ -52,9 +52,10 @@ def test_params_change_under_fixed_dt_stops_with_step(dam):
     """Speed of sound raised x1.98 under the scene's dt (0.25 h / c0): the host check (which allows
     dt <= 0.5 h / c0 at rest) passes, but the in-jit limit dt <= 0.5 h / (c0 + v_max) fails as soon
     as the collapsing column reaches 0.02 c0 = 0.4 m/s. The driver must stop with a SimulationError
-    naming the step and UNSTABLE_DT -- not run on. (Measured 2026-11-23: "stopped at step 96
-    (t = 0.0394 s)"; the driver checks once per chunk, so the step named is the end of the chunk in
-    which the bit was first set.)"""
+    naming the step and UNSTABLE_DT -- not run on. The step named is the first that set the bit
+    (the driver replays the failed chunk step by step): checked here by stepping by hand from the
+    start -- the step before it is clean. (Measured 2026-11-23 before the replay: "stopped at step
+    96", the end of the chunk.)"""
     f = dam.params.fluid
     params = dam.params.replace(fluid=f.replace(c0=1.98 * f.c0))
     scene = dam.replace(params=params)
@@ -67,6 +68,18 @@ def test_params_change_under_fixed_dt_stops_with_step(dam):
     assert 0 < e.step and f"step {e.step}" in str(e)
     t_stop = e.step * scene.config.dt
     assert 0.0 < t_stop < 0.1, t_stop  # stopped early in the collapse, not at the end
+    # by hand: the bit first appears at e.step
+    import jax
+
+    one = jax.jit(rj.make_step(scene.config))
+    s = rj.prime(scene.state, scene.params, scene.config)
+    first = None
+    for _ in range(e.step):
+        s = one(s, scene.params)
+        if int(s.status) & rj.Status.UNSTABLE_DT:
+            first = int(s.step)
+            break
+    assert first == e.step, (first, e.step)
 
 
 def test_block_params_too_stiff_set_status_in_jit():

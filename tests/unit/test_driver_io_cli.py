@@ -48,8 +48,12 @@ def test_out_of_domain_stops_with_step():
     scene = scene.replace(state=scene.state.replace(particles=P.replace(v=v)))
     with pytest.raises(rj.SimulationError) as info:
         rj.simulate(scene, t_end=0.05, frame_dt=0.01, progress=False)
-    assert info.value.step > 0
-    assert "OUT_OF_DOMAIN" in str(info.value) or "UNSTABLE_DT" in str(info.value)
+    # 40 m/s already breaks the Courant limit dt <= 0.5 h / (c0 + v_max) (h = 0.065 m, c0 = 19.8 m/s:
+    # 5.4e-4 s < dt = 8.2e-4 s), so the very first step is flagged -- not the last of its chunk.
+    cfg, f = scene.config, scene.params.fluid
+    assert cfg.dt > 0.5 * float(f.h) / (float(f.c0) + 40.0)
+    assert info.value.step == 1, info.value.step
+    assert "UNSTABLE_DT" in str(info.value) and "step 1 " in str(info.value)
 
 
 @pytest.mark.parametrize("kw,field", [({"dx": -1.0}, "dx"), ({"column_length": 3.0}, "column_length"),
