@@ -352,10 +352,10 @@ def sec_grad(doc: Doc):
             r0 = g[0]
             doc.p(f"`{name}`: scene {r0.get('scene')}, {r0.get('n_fluid')} fluid + {r0.get('n_wall')} wall particles, "
                   f"{r0.get('dtype')}, device {r0.get('device')}. Memory = XLA temporary bytes of the compiled function.")
-            rows = [[r["steps"], r.get("forward_s"), r.get("grad_s"), r.get("grad_over_forward"),
+            rows = [[r.get("checkpoint_levels", 3), r["steps"], r.get("forward_s"), r.get("grad_s"), r.get("grad_over_forward"),
                      r.get("forward_temp_bytes", 0) / 2**20, r.get("grad_checkpointed_temp_bytes", 0) / 2**20,
                      r.get("grad_plain_temp_bytes", 0) / 2**20] for r in g]
-            doc.p(table(["steps T", "forward s", "grad s", "grad / forward", "forward MiB",
+            doc.p(table(["checkpoint levels", "steps T", "forward s", "grad s", "grad / forward", "forward MiB",
                          "grad (checkpointed) MiB", "grad (plain scan) MiB"], rows))
         if e:
             rows = [[r.get("mode"), r.get("batch", 1), r.get("steps"), r.get("scenario_steps_per_s"),
