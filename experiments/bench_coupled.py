@@ -17,7 +17,6 @@ import os
 import time
 
 import jax
-import jax.numpy as jnp
 
 
 def _timed(fn, state, params, reps):

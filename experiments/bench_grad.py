@@ -114,7 +114,6 @@ def main(argv=None):
     k = config.rebuild_every
     T = args.base_steps or 2 * k
     obj = objective(scene)
-    n_part = config.n_particles
     base = dict(scene=args.scene, n_fluid=config.n_fluid, n_wall=config.n_wall,
                 n_blocks=(config.blocks.n_blocks if config.blocks else 0), dtype="f64" if args.f64 else "f32",
                 dt=config.dt, rebuild_every=k, device=str(jax.devices()[0].platform))

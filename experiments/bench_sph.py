@@ -74,7 +74,6 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
     counts = scene.counts()
     regrows = 0
     while True:
-        k = config.rebuild_every
         t0 = time.perf_counter()
         prime_c = jax.jit(lambda s, p: prime(s, p, config)).lower(state0, params).compile()
         state = prime_c(state0, params)

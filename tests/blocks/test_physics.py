@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rockjax.blocks import Motion, box, energies, make_blocks, slab, stable_dt
+from rockjax.blocks import box, energies, make_blocks, stable_dt
 
 from rollouts import incline_scene, run
 

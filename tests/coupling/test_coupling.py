@@ -4,14 +4,13 @@ Both coupling methods (seed Eq 22 penalty; boundary particles carried by the blo
 Scenes are tiny (dx = 2.5 cm, < 1000 water particles) so the default suite stays short.
 """
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import rockjax as rj
 from rockjax import Coupling
-from rockjax.coupling import boundary_particles, penalty
+from rockjax.coupling import penalty
 from rockjax.blocks.rotation import quat_matrix
 from rockjax.scenes.coupled import block_drop
 
@@ -87,7 +86,6 @@ def test_block_drop_keeps_water_out_and_mass(dropped):
     kind = res.frames["kind"][0]
     fluid = kind == rj.Kind.FLUID
     assert fluid.sum() == scene.config.n_fluid
-    from rockjax.blocks.model import BlockState  # noqa: F401 (shape of frames)
 
     B0 = scene.state.blocks
     for k in range(len(res.times)):

@@ -20,7 +20,6 @@ part shrinks with dx, the 0.925 does not), not a bug of the implementation. Boun
 carry the wall pressure instead and pass.
 """
 
-import numpy as np
 import pytest
 
 import rockjax as rj

@@ -5,7 +5,6 @@ traces the step: tracing succeeds only if the stage is never called.
 """
 
 import jax
-import pytest
 
 import rockjax as rj
 from rockjax import blocks

@@ -10,7 +10,6 @@ the best time shift (gate release). Peers on this machine (PySPH, SPlisHSPlasH, 
 import math
 
 import numpy as np
-import pytest
 
 import rockjax as rj
 from rockjax.validation import dam_break_2d, front_error, front_history, martin_moyce_n2_2

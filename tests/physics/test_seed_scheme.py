@@ -12,7 +12,6 @@ import pytest
 import rockjax as rj
 from rockjax.scenes.base import fluid_scene
 from rockjax.sph import seed
-from rockjax.sph.kernels import poly6
 
 
 def test_lattice_sum_matches_direct_sum():

@@ -11,10 +11,8 @@
 
 from __future__ import annotations
 
-import math
 
 import jax
-import numpy as np
 import pytest
 
 import rockjax as rj

@@ -24,7 +24,6 @@ both (numbers in ``KNOWN``; xfail strict).
 
 from __future__ import annotations
 
-import math
 import os
 
 import numpy as np

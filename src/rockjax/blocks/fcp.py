@@ -24,7 +24,6 @@ All functions are per pair; ``jax.vmap`` them over the candidate-pair buffer.
 
 from __future__ import annotations
 
-import jax
 import jax.numpy as jnp
 from jax import lax
 
