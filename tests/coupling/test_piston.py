@@ -13,9 +13,11 @@ starts: fits from the arrival itself read 2-5 % lower) until the beach reflectio
 Tolerance: 5 % (what a wave-maker user expects of the generated height). Measured 2026-11-23
 (``experiments/piston_decay.py``, this scene to 6.4 s, results in ``experiments/RESULTS.md``):
 H/S = 0.871 at 2 depths (-11 %); 0.933 / 0.871 / 0.865 / 0.868 / 0.80 at 1 / 2 / 3 / 4 / 6 depths.
-Neither free-slip walls (vs viscous: +0.01) nor alpha = 0.005 (vs 0.02) closes the gap; the wave
-height is 1.2 dx, far below the ~10 particles per wave height SPH wave studies use. Kept as a strict
-xfail with the number.
+Neither free-slip walls (vs viscous: +0.01) nor alpha = 0.005 (vs 0.02) closes the gap; resolution
+does: at dx = 0.02 m (82 min on 2 cores, too slow for a test) H/S = 0.928 / 0.909 / 0.918 / 0.851 /
+0.855, the error at 2 and 3 depths falling from -11 % to -7 %, about first order in dx (Richardson
+extrapolation at 2 depths: 0.985). The wave height here is 1.2 dx, far below the ~10 particles per
+wave height SPH wave studies use. Kept as a strict xfail with the number.
 
 Slow (~17 min on 2 quiet cores): ``pytest -m slow tests/coupling/test_piston.py``.
 """
