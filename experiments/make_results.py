@@ -137,6 +137,16 @@ class Doc:
         p = os.path.join(self.results, name)
         return p if os.path.exists(p) else None
 
+    def records(self, name: str, how: str) -> list[dict] | None:
+        """The records of results file ``name`` with its source line, or None after noting it
+        missing (``how``: the command that produces it)."""
+        p = self.path(name)
+        if not p:
+            self.missing(name, how)
+            return None
+        self.src(name)
+        return load(p)
+
 
 # ----------------------------------------------------------------------------------------------
 # sections
@@ -292,12 +302,9 @@ def sec_peers(doc: Doc):
 
 def sec_blocks(doc: Doc):
     doc.h("Blocks vs MuJoCo (box piles)")
-    p = doc.path("bench_blocks.jsonl")
-    if not p:
-        doc.missing("bench_blocks.jsonl", "python experiments/bench_blocks.py > experiments/results/bench_blocks.jsonl")
+    recs = doc.records("bench_blocks.jsonl", "python experiments/bench_blocks.py > experiments/results/bench_blocks.jsonl")
+    if recs is None:
         return
-    recs = load(p)
-    doc.src("bench_blocks.jsonl")
     ours = {r["n_blocks"]: r for r in recs if r.get("bench") == "blocks_pile"}
     mj = {r["n_blocks"]: r for r in recs if r.get("bench") == "mujoco_pile"}
     loads = sorted({r.get("load_avg_1m_at_save") for r in recs if r.get("load_avg_1m_at_save") is not None})
@@ -322,12 +329,9 @@ def sec_blocks(doc: Doc):
 
 def sec_coupled(doc: Doc):
     doc.h("Coupled step split (sliding wedge)")
-    p = doc.path("bench_coupled.jsonl")
-    if not p:
-        doc.missing("bench_coupled.jsonl", "python experiments/bench_coupled.py")
+    recs = doc.records("bench_coupled.jsonl", "python experiments/bench_coupled.py")
+    if recs is None:
         return
-    recs = load(p)
-    doc.src("bench_coupled.jsonl")
     doc.p(f"Machine: {_machine_of(recs)}. Issue 7 target: blocks + coupling <= 15 % of a coupled step.")
     rows = [[r.get("coupling"), r.get("dx"), r.get("n_fluid"), r.get("n_wall"), r.get("n_blocks"),
              r.get("ms_per_step_full"), r.get("ms_per_step_fluid"), r.get("ms_per_step_blocks"),
@@ -384,23 +388,17 @@ def sec_calibration(doc: Doc):
 
 def sec_piston(doc: Doc):
     doc.h("Piston wave maker: wave height vs linear transfer function")
-    p = doc.path("piston_transfer.jsonl")
-    if not p:
-        doc.missing("piston_transfer.jsonl", "python experiments/piston_transfer.py")
+    recs = doc.records("piston_transfer.jsonl", "python experiments/piston_transfer.py")
+    if recs is None:
         return
-    recs = load(p)
-    doc.src("piston_transfer.jsonl")
     rows = [[r.get("coupling"), r.get("dx"), r.get("kh"), r.get("depth"), r.get("stroke"), r.get("n_fluid"),
              r.get("H_over_S"), r.get("theory_H_over_S"), r.get("rel_error"), r.get("wall_s"), r.get("load")]
             for r in recs]
     doc.p(table(["coupling", "dx [m]", "kh", "depth [m]", "stroke [m]", "n_fluid", "H/S", "theory H/S",
                  "rel. error", "wall s", "load"], rows))
-    p = doc.path("piston_decay.jsonl")
-    if not p:
-        doc.missing("piston_decay.jsonl", "python experiments/piston_decay.py")
+    recs = doc.records("piston_decay.jsonl", "python experiments/piston_decay.py")
+    if recs is None:
         return
-    recs = load(p)
-    doc.src("piston_decay.jsonl")
     doc.p("Wave height against distance from the paddle (kh = 1, depth 0.3 m, stroke 0.04 m, 2D periodic slab, "
           "`experiments/piston_decay.py`). H/S is fitted (first + second harmonic, mean and drift) over whole "
           "periods from the front's arrival x / c_g plus 0 or 2 periods (the train develops over a few periods "
@@ -420,12 +418,9 @@ def sec_piston(doc: Doc):
 
 def sec_wedge(doc: Doc):
     doc.h("Wedge coupling: penalty vs boundary particles")
-    p = doc.path("wedge_coupling.json")
-    if not p:
-        doc.missing("wedge_coupling.json", "python experiments/wedge_coupling.py")
+    recs = doc.records("wedge_coupling.json", "python experiments/wedge_coupling.py")
+    if recs is None:
         return
-    recs = load(p)
-    doc.src("wedge_coupling.json")
     rows = []
     for r in recs:
         mg = r.get("max_gauge") or []
@@ -437,13 +432,10 @@ def sec_wedge(doc: Doc):
 
 def sec_stress(doc: Doc):
     doc.h("Stress suite (`pytest -m stress`)")
-    p = doc.path("stress.jsonl")
-    if not p:
-        doc.missing("stress.jsonl", "python experiments/make_results.py --stress-junit JUNIT.xml (after "
-                    "pytest -m stress --junitxml=JUNIT.xml)")
+    recs = doc.records("stress.jsonl", "python experiments/make_results.py --stress-junit JUNIT.xml (after "
+                                       "pytest -m stress --junitxml=JUNIT.xml)")
+    if recs is None:
         return
-    recs = load(p)
-    doc.src("stress.jsonl")
     per_file = [r for r in recs if r.get("kind") == "stress_run_per_file"]
     for r in per_file[-1:]:
         doc.p(f"Per-file runs of {r.get('date')} ({r.get('machine')}, load average {r.get('load_avg_1m_range')}): "
