@@ -95,8 +95,11 @@ def main(argv=None):
     ap.add_argument("--f64", action="store_true")
     ap.add_argument("--skip-grad", action="store_true")
     ap.add_argument("--skip-ensemble", action="store_true")
-    ap.add_argument("--checkpoint-blocks", action="store_true",
-                    help="three checkpoint levels (rollout's checkpoint_blocks=True) instead of two")
+    ap.add_argument("--levels", type=int, default=2, choices=[1, 2, 3],
+                    help="checkpoint levels (rollout's checkpoint_levels): 1 chunks, 2 + steps, 3 + blocks")
+    ap.add_argument("--chunk", type=int, default=None, help="blocks per checkpointed chunk (default sqrt)")
+    ap.add_argument("--time-plain", action="store_true",
+                    help="also time the un-checkpointed gradient (memory grows like T)")
     args = ap.parse_args(argv)
 
     import jax
@@ -129,7 +132,7 @@ def main(argv=None):
 
             def loss(p, n=n, ck=True):
                 s, _ = observed(config, p, n, None, state=state0, checkpoint=ck, prime=False,
-                                checkpoint_blocks=args.checkpoint_blocks)
+                                checkpoint_levels=args.levels, chunk=args.chunk)
                 return obj(s, p)
 
             f_jit = jax.jit(fwd)
@@ -143,13 +146,17 @@ def main(argv=None):
                 mem[name] = dict(temp_bytes=int(ma.temp_size_in_bytes), compile_s=time.perf_counter() - t)
             t_f = timed(f_jit, scene.params, repeats=args.repeats)
             t_g = timed(g_jit, scene.params, repeats=args.repeats)
+            extra = {}
+            if args.time_plain:
+                t_p = timed(g_plain, scene.params, repeats=args.repeats)
+                extra = dict(grad_plain_s=t_p, grad_plain_over_forward=t_p / t_f)
             print(json.dumps(dict(base, bench="grad", steps=n, multiple=mult, blocks=n // k,
-                                  checkpoint_levels=3 if args.checkpoint_blocks else 2,
-                                  chunk=default_chunk(n // k), forward_s=t_f, grad_s=t_g, grad_over_forward=t_g / t_f,
+                                  checkpoint_levels=args.levels,
+                                  chunk=args.chunk or default_chunk(n // k), forward_s=t_f, grad_s=t_g, grad_over_forward=t_g / t_f,
                                   forward_temp_bytes=mem["forward"]["temp_bytes"],
                                   grad_checkpointed_temp_bytes=mem["grad_checkpointed"]["temp_bytes"],
                                   grad_plain_temp_bytes=mem["grad_plain"]["temp_bytes"],
-                                  compile_s={kk: v["compile_s"] for kk, v in mem.items()})), flush=True)
+                                  compile_s={kk: v["compile_s"] for kk, v in mem.items()}, **extra)), flush=True)
 
     if not args.skip_ensemble:
         n = args.ensemble_steps or T

@@ -358,9 +358,9 @@ def sec_grad(doc: Doc):
                   f"{r0.get('dtype')}, device {r0.get('device')}. Memory = XLA temporary bytes of the compiled function.")
             rows = [[r.get("checkpoint_levels", 3), r["steps"], r.get("forward_s"), r.get("grad_s"), r.get("grad_over_forward"),
                      r.get("forward_temp_bytes", 0) / 2**20, r.get("grad_checkpointed_temp_bytes", 0) / 2**20,
-                     r.get("grad_plain_temp_bytes", 0) / 2**20] for r in g]
+                     r.get("grad_plain_temp_bytes", 0) / 2**20, r.get("grad_plain_over_forward")] for r in g]
             doc.p(table(["checkpoint levels", "steps T", "forward s", "grad s", "grad / forward", "forward MiB",
-                         "grad (checkpointed) MiB", "grad (plain scan) MiB"], rows))
+                         "grad (checkpointed) MiB", "grad (plain scan) MiB", "plain grad / forward"], rows))
         if e:
             rows = [[r.get("mode"), r.get("batch", 1), r.get("steps"), r.get("scenario_steps_per_s"),
                      r.get("speedup_vs_one_by_one")] for r in e]

@@ -100,7 +100,7 @@ def set_leaf(tree, path: str, value):
 
 def observed(scene, params: Params, n_steps: int, observe: Optional[Callable] = None, *,
              state: Optional[State] = None, checkpoint: bool = True, chunk: Optional[int] = None,
-             prime: bool = True, rebuild_on_displacement: bool = True, checkpoint_blocks: bool = False):
+             prime: bool = True, rebuild_on_displacement: bool = True, checkpoint_levels: int = 2):
     """Run ``n_steps`` steps of ``scene`` with ``params``: ``(final State, observations)``.
 
     Args:
@@ -111,7 +111,7 @@ def observed(scene, params: Params, n_steps: int, observe: Optional[Callable] = 
         observe: ``observe(state, params) -> pytree`` after every block of ``rebuild_every``
             steps; stacked along a leading axis of ``n_steps // rebuild_every`` (None: no output).
         state: initial state (default ``scene.state``), e.g. one member of an ensemble.
-        checkpoint, chunk, rebuild_on_displacement, checkpoint_blocks: see
+        checkpoint, chunk, rebuild_on_displacement, checkpoint_levels: see
             ``rockjax.rollout.make_rollout`` (under
             ``jax.vmap`` pass ``rebuild_on_displacement=False``: the rebuild ``cond`` becomes a select
             that rebuilds at every step).
@@ -129,7 +129,7 @@ def observed(scene, params: Params, n_steps: int, observe: Optional[Callable] = 
         s0 = _prime(s0, params, config)
     return make_rollout(config, nb, checkpoint=checkpoint, observe=observe, chunk=chunk,
                         rebuild_on_displacement=rebuild_on_displacement,
-                        checkpoint_blocks=checkpoint_blocks)(s0, params)
+                        checkpoint_levels=checkpoint_levels)(s0, params)
 
 
 def final_state(scene, params: Params, n_steps: int, **kwargs) -> State:

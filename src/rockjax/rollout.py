@@ -20,7 +20,7 @@ fluid from rest (K 144 vs 160, one build per 32 steps), 1.05-1.2x at 5.5k in the
 (t = 0.3 s: a build every ~4.6 steps, where the fixed 8-step schedule goes stale and the driver
 halves it to 4).
 
-Memory of reverse mode (``checkpoint=True``). Two nested levels under ``jax.checkpoint``:
+Memory of reverse mode (``checkpoint=True``). By default two nested levels under ``jax.checkpoint``:
 
 * outer scan over ``n_blocks // chunk`` *chunks* (it stores one State per chunk);
 * a chunk (``chunk`` blocks of ``rebuild_every`` steps) is recomputed in the backward pass and
@@ -30,11 +30,15 @@ Memory of reverse mode (``checkpoint=True``). Two nested levels under ``jax.chec
 So reverse mode holds about ``n_blocks / chunk + chunk * rebuild_every`` States plus one step's
 intermediates, at the price of two extra forward passes (the chunk's and the step's). The default
 ``chunk`` is ``ceil(sqrt(n_blocks))``, which makes the memory grow like ``sqrt(T)`` in the number of
-steps T (``experiments/bench_grad.py`` measures it). ``checkpoint_blocks=True`` adds a third level
-(each block checkpointed too: one State per block of the live chunk instead of one per step) for
-one more forward pass. Measured (360-particle dam break, f32, 2-core CPU, 8 and 32 blocks):
-grad / forward 5.6x and 5.3x with two levels vs 6.1x and 7.3x with three, for 1.6-2.2x the
-temporary memory (24-35 MB vs 15-16 MB).
+steps T (``experiments/bench_grad.py`` measures it). ``checkpoint_levels`` chooses the nesting:
+1 = chunks only (a chunk's steps keep their intermediates for the backward pass), 2 = chunks and
+steps (the default), 3 = chunks, blocks and steps (one State per block of the live chunk instead
+of one per step, for one more forward pass). Measured (360-particle dam break, f32, 2-core CPU,
+T = 16 / 64 / 256 steps, ``experiments/results/bench_grad_dam_f32_levels.jsonl``): grad / forward
+5.9 / 4.0 / 3.8 with two levels (21 -> 35 MiB), 8.8 / 11.3 / 8.5 with one (407 -> 939 MiB:
+a step's intermediates are ~26 MB of [n, K] pair arrays, and writing and reading them back costs
+more than recomputing them; the un-checkpointed gradient is 7.2-10x), 6.5 / 5.6 / 6.6 with three
+(15 -> 17 MiB, an earlier run).
 ``checkpoint=False`` is a plain scan of blocks (the host driver's forward-only path; no memory
 saving, nothing recomputed).
 """
@@ -90,7 +94,7 @@ def default_chunk(n_blocks: int) -> int:
 
 def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
                  observe: Optional[Callable[[State, Params], object]] = None, chunk: Optional[int] = None,
-                 rebuild_on_displacement: bool = True, checkpoint_blocks: bool = False):
+                 rebuild_on_displacement: bool = True, checkpoint_levels: int = 2):
     """Build ``run(state, params) -> (state, observations)``.
 
     Args:
@@ -105,13 +109,17 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
             one shorter chunk at the end.
         rebuild_on_displacement: also rebuild within a block when ``needs_rebuild`` (module
             docstring); False gives the plain fixed schedule (one rebuild per block).
-        checkpoint_blocks: with ``checkpoint``, also checkpoint each block (less memory, one more
-            forward pass in reverse mode; module docstring).
+        checkpoint_levels: with ``checkpoint``, how many nested levels are checkpointed: 1 = chunks
+            only (each chunk's steps store their intermediates in the backward pass: most memory,
+            fewest recomputations), 2 = chunks and steps (the default), 3 = chunks, blocks and
+            steps (least memory, one more forward pass). Module docstring.
 
     Returns:
         ``run(state, params)`` returning ``(final State, observations or None)``.
     """
     n_blocks = int(n_blocks)
+    if checkpoint_levels not in (1, 2, 3):
+        raise ValueError(f"make_rollout: checkpoint_levels must be 1, 2 or 3 (got {checkpoint_levels!r})")
     if n_blocks < 1:
         raise ValueError(f"make_rollout: n_blocks must be >= 1 (got {n_blocks})")
     k = config.rebuild_every
@@ -121,7 +129,7 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
             state = jax.lax.cond(needs_rebuild(state, config), lambda s: refresh(s, config), lambda s: s, state)
         return advance(state, params, config)
 
-    if checkpoint:
+    if checkpoint and checkpoint_levels >= 2:
         one_step = jax.checkpoint(one_step, prevent_cse=False)
 
     def block(state, params):
@@ -129,7 +137,7 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
         state, _ = jax.lax.scan(lambda s, _: (one_step(s, params), None), state, None, length=k)
         return state
 
-    if checkpoint and checkpoint_blocks:
+    if checkpoint and checkpoint_levels == 3:
         block = jax.checkpoint(block, prevent_cse=False)
 
     def scan_blocks(state, params, length):
@@ -172,8 +180,8 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
 
 def rollout(config: Config, state: State, params: Params, n_blocks: int, *, checkpoint: bool = True,
             observe=None, chunk: Optional[int] = None, rebuild_on_displacement: bool = True,
-            checkpoint_blocks: bool = False):
+            checkpoint_levels: int = 2):
     """Functional form of ``make_rollout(config, n_blocks, ...)(state, params)``."""
     return make_rollout(config, n_blocks, checkpoint=checkpoint, observe=observe, chunk=chunk,
                         rebuild_on_displacement=rebuild_on_displacement,
-                        checkpoint_blocks=checkpoint_blocks)(state, params)
+                        checkpoint_levels=checkpoint_levels)(state, params)

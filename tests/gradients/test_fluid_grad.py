@@ -16,6 +16,11 @@ energy oscillates with the acoustic period (~h / c0), so the central difference 
 step: at 1e-3 relative its truncation error in c0 was 0.3 %, at 1e-4 0.006 %.
 vmap(grad) over three (c0, alpha) members equals per-member grad to 1e-13 relative (measured);
 the bound is 1e-10 (vmapped reductions may sum in another order).
+
+Checkpointing changes what is stored, not what is computed: the gradient with 1, 2 or 3
+checkpoint levels (``make_rollout(checkpoint_levels=...)``; the finite-difference tests above check
+the default, 2) agree to round-off (5 blocks in chunks of 2, 2 and a tail of 1, so every level and
+the tail are exercised).
 """
 
 from __future__ import annotations
@@ -27,7 +32,7 @@ import pytest
 
 import gradcases as gc
 from rockjax import ensembles
-from rockjax.calibrate import get_leaf, set_leaf
+from rockjax.calibrate import get_leaf, observed, set_leaf
 
 REL_TOL = 0.01
 FD_STEP = 1e-5
@@ -65,3 +70,23 @@ def test_vmap_grad_equals_per_member_grad(dam):
             np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-10, atol=1e-12 * float(jnp.max(jnp.abs(b))))
     # the members differ: the batch really swept the parameters
     assert float(jnp.std(values)) > 1e-3 * float(jnp.mean(values))
+
+
+def test_checkpoint_levels_give_the_same_gradient(dam):
+    scene = dam["scene"]
+    n_steps = 5 * scene.config.rebuild_every  # 5 blocks: chunks of 2, 2 and a tail of 1
+
+    def grad(**kw):
+        def L(p):
+            final, _ = observed(scene, p, n_steps, None, chunk=2, **kw)
+            return jnp.sum(jnp.where(final.particles.kind[:, None] == 0, final.particles.v**2, 0.0))
+
+        g = jax.jit(jax.grad(L))(scene.params)
+        return np.array([float(get_leaf(g, "fluid.c0")), float(get_leaf(g, "fluid.alpha"))])
+
+    ref = grad(checkpoint_levels=2)
+    assert np.all(np.isfinite(ref)) and np.all(ref != 0.0)
+    for levels in (1, 3):
+        np.testing.assert_allclose(grad(checkpoint_levels=levels), ref, rtol=1e-9, err_msg=f"levels={levels}")
+    with pytest.raises(ValueError, match="checkpoint_levels"):
+        observed(scene, scene.params, n_steps, None, checkpoint_levels=4)
