@@ -54,7 +54,7 @@ import jax.numpy as jnp
 from .step import advance, refresh
 from .types import Config, Kind, Params, State
 
-__all__ = ["make_rollout", "rollout", "n_blocks_for", "default_chunk", "needs_rebuild"]
+__all__ = ["make_rollout", "rollout", "n_blocks_for", "default_chunk", "needs_rebuild", "scheduled_step"]
 
 
 def needs_rebuild(state: State, config: Config) -> jax.Array:
@@ -92,6 +92,41 @@ def default_chunk(n_blocks: int) -> int:
     return max(1, math.ceil(math.sqrt(n_blocks)))
 
 
+def _step_in_block(config: Config, rebuild_on_displacement: bool):
+    """``advance`` preceded, when the displacement trigger fires, by a list rebuild."""
+
+    def one_step(state, params):
+        if rebuild_on_displacement and config.has_particles:
+            state = jax.lax.cond(needs_rebuild(state, config), lambda s: refresh(s, config), lambda s: s, state)
+        return advance(state, params, config)
+
+    return one_step
+
+
+def scheduled_step(config: Config, *, rebuild_on_displacement: bool = True, period: Optional[int] = None):
+    """``step(state, params)``: one step with the rollout's rebuild rule, keyed to the step counter.
+
+    The list is rebuilt when ``state.step`` is a multiple of ``period`` (default
+    ``config.rebuild_every``) or, with ``rebuild_on_displacement``, when ``needs_rebuild``; then
+    ``advance``. With the default period and a state whose counter started at a block boundary
+    (rollouts start at 0) it takes exactly the steps ``make_rollout`` takes. The host driver scans
+    it between output frames (any number of steps, with a longer ``period``: the displacement
+    trigger keeps the list valid, the period only bounds how long particles go un-sorted), and
+    replays a failed chunk with it to name the first bad step.
+    """
+    inner = _step_in_block(config, rebuild_on_displacement)
+    period = config.rebuild_every if period is None else int(period)
+    if period < 1:
+        raise ValueError(f"scheduled_step: period must be >= 1 (got {period})")
+
+    def step(state, params):
+        if config.has_particles:
+            state = jax.lax.cond(state.step % period == 0, lambda s: refresh(s, config), lambda s: s, state)
+        return inner(state, params)
+
+    return step
+
+
 def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
                  observe: Optional[Callable[[State, Params], object]] = None, chunk: Optional[int] = None,
                  rebuild_on_displacement: bool = True, checkpoint_levels: int = 2):
@@ -124,11 +159,7 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
         raise ValueError(f"make_rollout: n_blocks must be >= 1 (got {n_blocks})")
     k = config.rebuild_every
 
-    def one_step(state, params):
-        if rebuild_on_displacement and config.has_particles:
-            state = jax.lax.cond(needs_rebuild(state, config), lambda s: refresh(s, config), lambda s: s, state)
-        return advance(state, params, config)
-
+    one_step = _step_in_block(config, rebuild_on_displacement)
     if checkpoint and checkpoint_levels >= 2:
         one_step = jax.checkpoint(one_step, prevent_cse=False)
 

@@ -41,6 +41,7 @@ def test_slab_and_slope_helpers():
         (dict(motion=[Motion.PRESCRIBED, Motion.DYNAMIC]), "prescribed_direction"),
         (dict(motion=[Motion.FIXED, Motion.DYNAMIC], velocities=np.ones((2, 3))), "velocities"),
         (dict(period=0.0), "period"),
+        (dict(prescribed_ramp=-1.0), "prescribed_ramp"),
         (dict(fcp_iterations=-1), "fcp_iterations"),
     ],
 )
@@ -127,3 +128,46 @@ def test_stack_of_five_at_rest():
     f, _, _, _ = rb.contact_forces(s, par, cfg, dt=dt)
     m = 2650 * 0.008
     assert float(f[0, 2]) == pytest.approx(-5 * m * 9.81, rel=1e-2)
+
+
+def test_prescribed_ramp_soft_start(x64):
+    # x(t) = x0 + d S/2 r(t) sin(w t), r a half-cosine ramp over `ramp` seconds: the piston starts
+    # at rest with zero velocity, v is the exact derivative of x, and after the ramp the motion
+    # is the plain sine
+    S, T, ramp = 0.1, 0.8, 1.0
+    kw = dict(motion=[Motion.PRESCRIBED], stroke=S, period=T, prescribed_direction=[(1.0, 0.0, 0.0)])
+    cfg, par, st = make_blocks([box(1, 1, 1)], prescribed_ramp=ramp, **kw)
+    cfg0, par0, _ = make_blocks([box(1, 1, 1)], **kw)
+    assert cfg.prescribed_ramp == ramp and cfg0.prescribed_ramp == 0.0
+    x0 = st.x0
+    x, v = rb.prescribed_motion(cfg, par, x0, 0.0)
+    np.testing.assert_allclose(np.asarray(x - x0), 0.0, atol=1e-15)
+    np.testing.assert_allclose(np.asarray(v), 0.0, atol=1e-15)  # no velocity jump at t = 0
+    _, v_hard = rb.prescribed_motion(cfg0, par0, x0, 0.0)
+    assert float(v_hard[0, 0]) == pytest.approx(0.5 * S * 2 * np.pi / T)  # the impulsive start
+    eps = 1e-6
+    for t in (0.1, 0.37, 0.5, 0.93, ramp, 1.4, 2.3):
+        xp, _ = rb.prescribed_motion(cfg, par, x0, t + eps)
+        xm, _ = rb.prescribed_motion(cfg, par, x0, t - eps)
+        _, vt = rb.prescribed_motion(cfg, par, x0, t)
+        # central FD error: O(eps^2) where x is smooth, O(eps) across the ramp's end (x is C1 there)
+        np.testing.assert_allclose(np.asarray(vt), np.asarray((xp - xm) / (2 * eps)), atol=1e-6 * 0.5 * S * 2 * np.pi / T)
+        if t >= ramp:
+            xr, vr = rb.prescribed_motion(cfg0, par0, x0, t)
+            xt, _ = rb.prescribed_motion(cfg, par, x0, t)
+            np.testing.assert_allclose(np.asarray(xt), np.asarray(xr), atol=1e-15)
+            np.testing.assert_allclose(np.asarray(vt), np.asarray(vr), atol=1e-12)
+    # half way through the ramp the amplitude is half the stroke's
+    xh, _ = rb.prescribed_motion(cfg, par, x0, 0.5 * ramp)
+    expect = 0.5 * (0.5 * S) * np.sin(2 * np.pi * 0.5 * ramp / T)
+    assert float(xh[0, 0] - x0[0, 0]) == pytest.approx(expect, rel=1e-12)
+
+
+def test_piston_wavemaker_ramp_option():
+    import rockjax as rj
+
+    scene = rj.scenes.piston_wavemaker(dx=0.1, period=0.8, ramp_periods=2.5)
+    assert scene.config.blocks.prescribed_ramp == pytest.approx(2.0)
+    assert rj.scenes.piston_wavemaker(dx=0.1).config.blocks.prescribed_ramp == 0.0
+    with pytest.raises(ValueError, match="ramp_periods"):
+        rj.scenes.piston_wavemaker(dx=0.1, ramp_periods=-1.0)

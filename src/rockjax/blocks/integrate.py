@@ -31,13 +31,24 @@ __all__ = ["advance_blocks", "prescribed_motion"]
 def prescribed_motion(config: BlockConfig, params: BlockParams, x0, t):
     """Piston positions and velocities at time t (s).
 
+    ``x(t) = x0 + dir S/2 r(t) sin(2 pi t / T)`` with the soft-start factor
+    ``r(t) = (1 - cos(pi t / ramp)) / 2`` for ``t < ramp = config.prescribed_ramp`` and 1 after
+    (``r = 1`` throughout when ``ramp = 0``); ``v = dx/dt`` exactly (both terms of the product).
+
     Returns:
       ``(x [B,3] m, v [B,3] m/s)`` for every block (meaningful for PRESCRIBED ones).
     """
     d = jnp.asarray(np.asarray(config.prescribed_direction, np.float64).reshape(-1, 3), x0.dtype)
     w = 2.0 * jnp.pi / params.period
     amp = 0.5 * params.stroke
-    return x0 + d * amp * jnp.sin(w * t), d * amp * w * jnp.cos(w * t)
+    s, c = jnp.sin(w * t), jnp.cos(w * t)
+    ramp = config.prescribed_ramp
+    if ramp <= 0.0:
+        return x0 + d * amp * s, d * amp * w * c
+    phase = jnp.minimum(t, ramp) * (jnp.pi / ramp)
+    r = 0.5 * (1.0 - jnp.cos(phase))
+    dr = jnp.where(t < ramp, (0.5 * jnp.pi / ramp) * jnp.sin(phase), 0.0)
+    return x0 + d * amp * r * s, d * amp * (r * w * c + dr * s)
 
 
 def advance_blocks(state: BlockState, params: BlockParams, config: BlockConfig, *, dt, t, gravity,

@@ -73,6 +73,8 @@ class BlockConfig:
       fcp_iterations: fixed number of Fast Common Plane iterations per pair and step.
       broadphase: :class:`Broadphase`.
       prescribed_direction: per block unit 3-vector of the piston motion ((0,0,0) if not PRESCRIBED).
+      prescribed_ramp: s, soft start of the piston: the amplitude grows as
+        ``(1 - cos(pi t / ramp)) / 2`` over the first ``ramp`` seconds (0: full amplitude at t = 0).
       aabb_margin: m, added to every AABB half-size in the broad phase.
       grid_cell_size: m, uniform-grid cell (GRID; default 1.5 x median block size, seed section 2).
       grid_cell_capacity: most blocks per grid cell (GRID); more set CONTACT_OVERFLOW.
@@ -95,6 +97,7 @@ class BlockConfig:
     fcp_iterations: int = 2
     broadphase: Broadphase = Broadphase.ALL_PAIRS
     prescribed_direction: tuple = ()
+    prescribed_ramp: float = 0.0
     aabb_margin: float = 0.0
     grid_cell_size: float = 1.0
     grid_cell_capacity: int = 32
@@ -110,6 +113,8 @@ class BlockConfig:
             raise ValueError("BlockConfig.pair_capacity must be >= 1")
         if self.fcp_iterations < 0:
             raise ValueError("BlockConfig.fcp_iterations must be >= 0")
+        if not (self.prescribed_ramp >= 0.0 and math.isfinite(self.prescribed_ramp)):
+            raise ValueError(f"BlockConfig.prescribed_ramp must be a finite time >= 0 s (got {self.prescribed_ramp})")
 
     @property
     def dynamic(self) -> tuple:
@@ -399,6 +404,7 @@ def make_blocks(
     stroke: float = 0.0,
     period: float = 1.0,
     prescribed_direction=None,
+    prescribed_ramp: float = 0.0,
     pair_capacity: Optional[int] = None,
     fcp_iterations: int = 2,
     broadphase: Optional[Broadphase] = None,
@@ -428,6 +434,8 @@ def make_blocks(
       damping_ratio: closing-only ratio of critical damping per contact point (>= 0).
       stroke, period: piston stroke (m) and period (s) of PRESCRIBED blocks.
       prescribed_direction: [B,3] piston directions (needed for PRESCRIBED blocks; normalised).
+      prescribed_ramp: s, soft start of the piston (amplitude ramped up with a half cosine over
+        this time; 0 = full amplitude from t = 0).
       pair_capacity: candidate-pair buffer; default all candidate pairs (ALL_PAIRS) or
         ``8 x n_dynamic + (#large blocks x B)`` (GRID).
       fcp_iterations: Fast Common Plane iterations per step (>= 0).
@@ -493,6 +501,7 @@ def make_blocks(
     zeta = _scalar("damping_ratio", damping_ratio, lo=0.0, unit="(ratio of critical)")
     S = _scalar("stroke", stroke, lo=0.0, unit="m")
     T = _scalar("period", period, lo=0.0, lo_open=True, unit="s")
+    ramp = _scalar("prescribed_ramp", prescribed_ramp, lo=0.0, unit="s")
 
     pdir = np.zeros((B, 3))
     if any(m == Motion.PRESCRIBED for m in motion):
@@ -549,6 +558,7 @@ def make_blocks(
         fcp_iterations=it,
         broadphase=broadphase,
         prescribed_direction=tuple(tuple(float(c) for c in r) for r in pdir),
+        prescribed_ramp=float(ramp),
         aabb_margin=float(margin),
         grid_cell_size=float(cell),
         grid_cell_capacity=int(grid_cell_capacity),

@@ -364,11 +364,15 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
                      flat_length: float = 2.0, beach_slope: float = 0.04, beach_length: float | None = None,
                      flume_width: float | None = None, periodic_y: bool = True, coupling: Coupling = Coupling.PENALTY,
                      gauge_x=None, h_factor: float = 1.3, c0: float | None = None, alpha: float = 0.02,
-                     wall_viscosity: float = 1.0) -> Scene:
+                     wall_viscosity: float = 1.0, ramp_periods: float = 0.0) -> Scene:
     """The seed's first example: a piston wave maker, a flat section and a sloping beach.
 
-    The piston is a PRESCRIBED block, ``x(t) = x0 + S/2 sin(2 pi t / T)`` (stroke S, period T
-    in ``Params.blocks``); its face is at x = 0 at rest. The flat runs to x = ``flat_length``,
+    The piston is a PRESCRIBED block, ``x(t) = x0 + S/2 r(t) sin(2 pi t / T)`` (stroke S, period T
+    in ``Params.blocks``); its face is at x = 0 at rest. ``ramp_periods``: soft start, the
+    amplitude factor r(t) rises as a half cosine from 0 to 1 over ``ramp_periods * period``
+    seconds (fixed in the Config when the scene is built; 0 = full stroke from t = 0, an impulsive
+    start). Wave flumes ramp up over a few periods: the paddle starts without a velocity jump,
+    which spares the weakly compressible fluid the pressure shock of an impulsive start. The flat runs to x = ``flat_length``,
     then the beach rises at ``beach_slope`` (rise/run; the seed's is 4 %) for ``beach_length``
     (default: up to 0.5 water depths above the still level). Wave gauges at ``gauge_x`` [m]
     (default 0.3 and 0.6 of the flat). ``periodic_y`` makes the flume a
@@ -384,6 +388,8 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     for nm, v in (("stroke", stroke), ("period", period), ("water_depth", water_depth),
                   ("flat_length", flat_length), ("beach_slope", beach_slope), ("flume_width", flume_width)):
         _positive(f"piston_wavemaker: {nm}", v)
+    if not (math.isfinite(ramp_periods) and ramp_periods >= 0):
+        raise ValueError(f"piston_wavemaker: ramp_periods must be a finite number >= 0 (got {ramp_periods})")
     blocks = _blocks_api()
     layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
     rise = 1.5 * water_depth
@@ -414,8 +420,8 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     dom_lo = [x_min - pad, 0.0 if periodic_y else -pad, -pad]
     dom_hi = [hi[0] + pad, flume_width if periodic_y else flume_width + pad, z_top + water_depth]
     gauge_x = [0.3 * flat_length, 0.6 * flat_length] if gauge_x is None else [float(g) for g in gauge_x]
-    meta = dict(stroke=stroke, period=period, water_depth=water_depth, flat_length=flat_length,
-                beach_slope=beach_slope, still_level=water_depth,
+    meta = dict(stroke=stroke, period=period, ramp_periods=ramp_periods, water_depth=water_depth,
+                flat_length=flat_length, beach_slope=beach_slope, still_level=water_depth,
                 runup_slope=dict(point=[flat_length, 0.5 * flume_width, 0.0],
                                  normal=(n_beach / np.linalg.norm(n_beach)).tolist(), x_min=flat_length),
                 gauges=dict(names=[f"x={gx:g}" for gx in gauge_x], xy=[[gx, 0.5 * flume_width] for gx in gauge_x],
@@ -424,7 +430,9 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
                          motion=(blocks.Motion.PRESCRIBED,), block_density=2500.0, friction_angle_deg=30.0,
                          fluid_x=water, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi, periodic=periodic,
                          still_level=water_depth, coupling=coupling, c0=c0, h_factor=h_factor, alpha=alpha,
-                         wall_viscosity=wall_viscosity, block_kwargs=dict(stroke=stroke, period=period, prescribed_direction=[(1.0, 0.0, 0.0)]), meta=meta)
+                         wall_viscosity=wall_viscosity, meta=meta,
+                         block_kwargs=dict(stroke=stroke, period=period, prescribed_direction=[(1.0, 0.0, 0.0)],
+                                           prescribed_ramp=ramp_periods * period))
 
 
 def block_on_incline(*, angle_deg: float = 30.0, friction_angle_deg: float = 20.0, block_size=(0.2, 0.2, 0.1),
