@@ -7,9 +7,9 @@ rebuilds the neighbour list when a particle would move more than ``skin / 2`` (t
 trigger) and at least every ``rebuild_period`` steps (default ``max(Config.rebuild_every, 32)``:
 with the trigger a list is never used stale, so the forced re-sort can be rarer than the fixed
 schedule a vmapped or differentiated rollout needs). Frames are a whole number of steps apart,
-independent of the rebuild period. Measured (3D dam break, 2-core CPU,
-``experiments/results/bench_sph_ab.jsonl``): a 32-step period with the trigger vs the fixed 8-step
-schedule, 1.28x at 21k fluid from rest, 1.06x at 5.5k in the developed surge.
+independent of the rebuild period. Measured (``experiments/bench_driver.py``, 3D dam break, quiet
+2-core CPU, ``experiments/results/bench_driver.jsonl``): period 32 vs 8, both with the trigger,
+1.12x at 21k fluid (0.1 s from rest), 1.08x at 5.5k over the collapse and surge (0.3 s).
 """
 
 from __future__ import annotations
