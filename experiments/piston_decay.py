@@ -57,7 +57,7 @@ def analyse(npz: str, delays=(0, 1, 2)) -> dict:
     """Wave height at each gauge over the developed train: whole periods from the front's arrival
     (x / c_g) plus ``delay`` periods until the beach reflection could return (or the record ends),
     fitted by ``rockjax.validation.wave_height`` (first + second harmonic, mean and drift)."""
-    from rockjax.validation import wave_height
+    from rockjax.validation import wave_height, wave_phase
 
     d = np.load(npz)
     t, eta, T = d["t"], d["eta"], float(d["T"])
@@ -73,12 +73,22 @@ def analyse(npz: str, delays=(0, 1, 2)) -> dict:
             if n:
                 fits.append(dict(delay_periods=delay, t_start=round(t_start, 3), periods=n, H_over_S=H / STROKE,
                                  H2_over_S=H2 / STROKE, rel_error=(H / STROKE - theory) / theory))
-        rows.append(dict(x=float(x), x_over_depth=float(x) / DEPTH, t_stop=round(t_stop, 3), fits=fits))
+        phase = wave_phase(t, eta[:, j], period=T, t_start=x / wave["cg"] + 2 * T, t_stop=t_stop)
+        rows.append(dict(x=float(x), x_over_depth=float(x) / DEPTH, t_stop=round(t_stop, 3), fits=fits,
+                         phase=phase))
+    # wavenumber of the developed train: slope of the unwrapped first-harmonic phases over the
+    # gauges beyond the evanescent modes (x >= 2 depths), against linear theory's k
+    far = [(r["x"], r["phase"]) for r in rows if r["x"] >= 2 * DEPTH - 1e-9 and np.isfinite(r["phase"])]
+    k_fit = None
+    if len(far) >= 2:
+        xs = np.array([a for a, _ in far])
+        k_fit = float(np.polyfit(xs, np.unwrap([b for _, b in far]), 1)[0])
     return dict(kh=KH, depth=DEPTH, stroke=STROKE, period=T, dx=float(d["dx"]) if "dx" in d else None,
                 coupling=str(d["coupling"]) if "coupling" in d else None, n_fluid=int(d["n"]),
                 alpha=float(d["alpha"]) if "alpha" in d else 0.02,
                 wall_viscosity=float(d["wall_viscosity"]) if "wall_viscosity" in d else 1.0,
-                t_end=float(t[-1]), wall_s=float(d["wall"]), theory_H_over_S=theory, gauges=rows)
+                t_end=float(t[-1]), wall_s=float(d["wall"]), theory_H_over_S=theory, gauges=rows,
+                k_fit=k_fit, k_theory=KH / DEPTH)
 
 
 def main():

@@ -17,7 +17,7 @@ import pathlib
 import numpy as np
 
 __all__ = ["data_dir", "martin_moyce_n2_2", "dam_break_2d", "dam_break_3d", "front_history", "front_error",
-           "energy_history", "piston_transfer", "linear_wave", "wave_height"]
+           "energy_history", "piston_transfer", "linear_wave", "wave_height", "wave_phase"]
 
 GRAVITY = 9.81
 
@@ -140,6 +140,22 @@ def linear_wave(kh: float, depth: float, *, g: float = GRAVITY) -> dict:
     return dict(k=k, omega=omega, period=2 * math.pi / omega, c=omega / k, cg=cg)
 
 
+def _harmonic_fit(t, eta, period: float, t_start: float, t_stop: float):
+    """Least-squares coefficients ``(a1, b1, a2, b2, c0, c1)`` of ``wave_height``'s model over the
+    whole periods in ``[t_start, t_stop]``, and their number (None, 0 when not one period fits)."""
+    t = np.asarray(t, float)
+    eta = np.asarray(eta, float)
+    n = int(math.floor((t_stop - t_start) / period + 1e-9))
+    if n < 1:
+        return None, 0
+    m = (t >= t_start) & (t < t_start + n * period)
+    w = 2 * math.pi / period
+    tm = t[m]
+    A = np.stack([np.sin(w * tm), np.cos(w * tm), np.sin(2 * w * tm), np.cos(2 * w * tm), np.ones_like(tm),
+                  tm - tm.mean()], 1)
+    return np.linalg.lstsq(A, eta[m], rcond=None)[0], n
+
+
 def wave_height(t, eta, *, period: float, t_start: float, t_stop: float) -> tuple[float, float, int]:
     """Height of the wave train ``eta(t)`` [m] at the frequency 2 pi / ``period``.
 
@@ -149,15 +165,18 @@ def wave_height(t, eta, *, period: float, t_start: float, t_stop: float) -> tupl
     ``(H, H2, n_periods)``: the first- and second-harmonic heights ``2 |(a, b)|`` [m] and the number
     of periods fitted (0, with NaN heights, when not one period fits).
     """
-    t = np.asarray(t, float)
-    eta = np.asarray(eta, float)
-    n = int(math.floor((t_stop - t_start) / period + 1e-9))
-    if n < 1:
+    c, n = _harmonic_fit(t, eta, period, t_start, t_stop)
+    if c is None:
         return float("nan"), float("nan"), 0
-    m = (t >= t_start) & (t < t_start + n * period)
-    w = 2 * math.pi / period
-    tm = t[m]
-    A = np.stack([np.sin(w * tm), np.cos(w * tm), np.sin(2 * w * tm), np.cos(2 * w * tm), np.ones_like(tm),
-                  tm - tm.mean()], 1)
-    c = np.linalg.lstsq(A, eta[m], rcond=None)[0]
     return 2 * math.hypot(c[0], c[1]), 2 * math.hypot(c[2], c[3]), n
+
+
+def wave_phase(t, eta, *, period: float, t_start: float, t_stop: float) -> float:
+    """Phase ``phi`` [rad] of the first harmonic, ``eta_1 = (H/2) cos(w t - phi)``, fitted like
+    ``wave_height``. For a progressive wave ``eta = (H/2) cos(w t - k x)`` at gauge x, ``phi = k x``
+    (mod 2 pi): the slope of the unwrapped phases over gauges is the wavenumber k. NaN when not
+    one period fits."""
+    c, _ = _harmonic_fit(t, eta, period, t_start, t_stop)
+    if c is None:
+        return float("nan")
+    return math.atan2(c[0], c[1])

@@ -17,7 +17,10 @@ Neither free-slip walls (vs viscous: +0.01) nor alpha = 0.005 (vs 0.02) closes t
 does: at dx = 0.02 m (82 min on 2 cores, too slow for a test) H/S = 0.928 / 0.909 / 0.918 / 0.851 /
 0.855, the error at 2 and 3 depths falling from -11 % to -7 %, about first order in dx (Richardson
 extrapolation at 2 depths: 0.985). The wave height here is 1.2 dx, far below the ~10 particles per
-wave height SPH wave studies use. Kept as a strict xfail with the number.
+wave height SPH wave studies use. The train is also ~3-4 % too long: the first-harmonic phases
+over the gauges at 2-6 depths (``rockjax.validation.wave_phase``, ``piston_decay.py``'s ``k_fit``)
+give k = 3.24 / 3.20 1/m at dx = 0.03 / 0.02 m against linear theory's 3.33 (Stokes' third-order
+speed-up at ka = 0.06 is ~1 %). Kept as a strict xfail with the number.
 
 Slow (~17 min on 2 quiet cores): ``pytest -m slow tests/coupling/test_piston.py``.
 """

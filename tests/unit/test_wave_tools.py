@@ -4,6 +4,7 @@
   c_g = d omega / d k (central difference of the dispersion relation, independent of the formula).
 * ``piston_transfer``: the tabulated H/S against the formula 2 (cosh 2kh - 1) / (sinh 2kh + 2kh).
 * ``wave_height``: a synthetic record with known first/second harmonic heights, offset and drift.
+* ``wave_phase``: synthetic progressive-wave records at several gauges give back k x.
 """
 
 import math
@@ -11,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from rockjax.validation import linear_wave, piston_transfer, wave_height
+from rockjax.validation import linear_wave, piston_transfer, wave_height, wave_phase
 
 
 @pytest.mark.parametrize("kh", [0.3, 1.0, 2.5])
@@ -41,3 +42,17 @@ def test_wave_height_recovers_synthetic_train():
     assert H == pytest.approx(0.04, rel=1e-9)
     assert H2 == pytest.approx(0.006, rel=1e-9)
     assert wave_height(t, eta, period=T, t_start=1.0, t_stop=2.0)[2] == 0
+
+
+def test_wave_phase_gives_the_wavenumber():
+    T, k, H = 1.3, 2.7, 0.02
+    w = 2 * math.pi / T
+    t = np.arange(0.0, 12.0, T / 24)
+    xs = np.array([0.3, 0.6, 0.9, 1.5])
+    phases = []
+    for x in xs:
+        eta = 0.5 * H * np.cos(w * t - k * x) + 0.1 * H * np.cos(2 * (w * t - k * x)) + 1e-3 + 1e-4 * t
+        phases.append(wave_phase(t, eta, period=T, t_start=2.0, t_stop=11.0))
+    phases = np.unwrap(phases)
+    np.testing.assert_allclose(np.diff(phases) / np.diff(xs), k, rtol=1e-6)
+    assert math.isnan(wave_phase(t, np.zeros_like(t), period=T, t_start=2.0, t_stop=2.5))
