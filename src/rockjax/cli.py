@@ -76,7 +76,7 @@ def _cmd_run(args) -> int:
         print(json.dumps(dict(info, t_end_s=t_end, frame_dt_s=frame_dt, out=out)))
         return 0
     try:
-        result = simulate(scene, t_end=t_end, out=out, frame_dt=frame_dt,
+        result = simulate(scene, t_end=t_end, out=out, frame_dt=frame_dt, rebuild_period=args.rebuild_period,
                           progress=not args.quiet and None, keep_frames=False, observe=scene_observer(scene.meta))
     except (SimulationError, ValueError) as e:
         print(f"rockjax: {e}", file=sys.stderr)
@@ -127,6 +127,9 @@ def _add_run(sub) -> None:
     p.add_argument("--dry-run", action="store_true",
                    help="print counts, dt, steps, stages and a memory estimate (JSON) without running")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--rebuild-period", type=int, default=None,
+                   help="rebuild the neighbour list at least every this many steps (default 32; it is also "
+                        "rebuilt whenever a particle would move more than half the skin)")
     p.set_defaults(func=_cmd_run)
 
 

@@ -109,3 +109,15 @@ def test_unknown_name_and_option(capsys):
     assert "rockjax list" in capsys.readouterr().err
     assert main(["run", "block_on_incline", "--dx", "0.1", "--dry-run"]) == 2
     assert "has no option --dx" in capsys.readouterr().err
+
+
+def test_run_with_rebuild_period(capsys):
+    # a tiny run with the list rebuilt at least every 4 steps; the period reaches the driver
+    assert main(["run", "hydrostatic_tank", "--dx", "0.05", "--t-end", "0.005", "--rebuild-period", "4",
+                 "--quiet"]) == 0
+    summary = _json(capsys.readouterr().out)
+    assert summary["rebuild_period"] == 4 and summary["steps"] >= 1
+    # a bad period is refused with the keyword named (exit 1, no traceback)
+    assert main(["run", "hydrostatic_tank", "--dx", "0.05", "--t-end", "0.005", "--rebuild-period", "0",
+                 "--quiet"]) == 1
+    assert "rebuild_period" in capsys.readouterr().err
