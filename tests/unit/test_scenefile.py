@@ -339,7 +339,7 @@ def test_non_convex_block_is_refused_unless_hull(tmp_path):
     toml = tmp_path / "s.toml"
     toml.write_text('[[block]]\nshape = "mesh"\nfile = "dented.obj"\n')
     with pytest.raises(ValueError, match=r"s.toml line 3: key `block.file` \(\[\[block\]\] #1\): mesh file "
-                                         rf"'.*dented.obj' is not a valid convex block"):
+                                         r"'.*dented.obj' is not a valid convex block"):
         load(toml)
     toml.write_text('[[block]]\nshape = "mesh"\nfile = "dented.obj"\nhull = true\n')
     scene = load(toml).scene  # blocks only: one dynamic block, nothing else
