@@ -193,12 +193,10 @@ def sec_sph(doc: Doc):
 
 def sec_driver(doc: Doc):
     doc.h("Host driver: forced list-rebuild period (3D dam break)")
-    p = doc.path("bench_driver.jsonl")
-    if not p:
-        doc.missing("bench_driver.jsonl", "python experiments/bench_driver.py --out experiments/results/bench_driver.jsonl")
+    recs = doc.records("bench_driver.jsonl",
+                       "python experiments/bench_driver.py --out experiments/results/bench_driver.jsonl")
+    if recs is None:
         return
-    recs = load(p)
-    doc.src("bench_driver.jsonl")
     doc.p("`rockjax.simulate` from rest with the neighbour list rebuilt at least every `period` steps, the "
           "displacement trigger on in both variants (compile excluded; the periods alternate within one run). "
           "`vs shortest` = wall-time speed-up over the shortest period of the same size and run.")
