@@ -18,7 +18,7 @@ Each case (fluid particle count x scheme) runs in its own subprocess so that pea
 
 The chunk starts from the primed initial state (water at rest, breaking) and its final status
 must be clean (no overflow, no stale list); a growable status bit is cured the way the driver
-cures it (``driver._grow``) and the case is rerun, the final capacities are reported.
+cures it for a rollout (``driver._grow_rollout``) and the case is rerun, the final capacities are reported.
 
 * ``rebuilds``: list rebuilds in one timed chunk (block starts + displacement triggers, see
   ``rockjax.rollout.needs_rebuild``; ``--no-trigger`` for the fixed schedule only);
@@ -57,7 +57,7 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
     import numpy as np
 
     import rockjax as rj
-    from rockjax.driver import _grow, resize
+    from rockjax.driver import _grow_rollout, resize
     from rockjax.rollout import make_rollout, needs_rebuild
     from rockjax.step import advance, prime, refresh
 
@@ -94,7 +94,7 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
         regrows += 1
         if regrows > 6:
             raise RuntimeError(f"{size}/{scheme}: gave up regrowing ({rj.Status.describe(bits)})")
-        config = _grow(config, out if int(out.status) else state, bits)
+        config = _grow_rollout(config, out if int(out.status) else state, bits)
         state0 = resize(state0, config)
 
     steps = blocks * config.rebuild_every
@@ -160,7 +160,7 @@ def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: fl
     import jax
 
     import rockjax as rj
-    from rockjax.driver import _grow, resize
+    from rockjax.driver import _grow_rollout, resize
     from rockjax.rollout import make_rollout
     from rockjax.step import prime
 
@@ -184,7 +184,7 @@ def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: fl
                 break
             if bits & ~int(rj.Status.growable()):
                 raise RuntimeError(f"{spec}: {rj.Status.describe(bits)}")
-            config = _grow(config, out if int(out.status) else state, bits)
+            config = _grow_rollout(config, out if int(out.status) else state, bits)
             state0 = resize(state0, config)
         nf = scene.counts()["fluid"]
         runs[spec] = dict(run=run, state=state, params=params, K=config.neighbour_capacity,

@@ -88,7 +88,7 @@ def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None)
     import jax
 
     import rockjax as rj
-    from rockjax.driver import _grow, resize
+    from rockjax.driver import _grow_rollout, resize
     from rockjax.rollout import make_rollout
     from rockjax.step import prime
 
@@ -119,7 +119,7 @@ def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None)
         regrows += 1
         if regrows > 6:
             raise RuntimeError(f"rockjax {size}/{scheme}: gave up regrowing ({rj.Status.describe(bits)})")
-        config = _grow(config, out if int(out.status) else state, bits)
+        config = _grow_rollout(config, out if int(out.status) else state, bits)
         state0 = resize(state0, config)
     steps = n_blocks * config.rebuild_every
     Mon = _monitor()

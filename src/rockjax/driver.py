@@ -163,6 +163,13 @@ def _grow(config: Config, period: int, state: State, bits: int) -> tuple[Config,
     return config.replace(**changes), period
 
 
+def _grow_rollout(config: Config, state: State, bits: int) -> Config:
+    """``_grow`` for a fixed-schedule rollout (``make_rollout``, as the benchmarks run it), whose
+    forced rebuild period is ``config.rebuild_every``: a stale list halves ``rebuild_every``."""
+    config, period = _grow(config, config.rebuild_every, state, bits)
+    return config.replace(rebuild_every=period)
+
+
 def _clear(state: State) -> State:
     zero = jnp.zeros((), jnp.int32)
     state = state.replace(status=zero)

@@ -17,8 +17,8 @@ should pass ``rebuild_on_displacement=False`` with a skin that covers ``rebuild_
 Measured (3D dam break, f32, 2-core CPU, ``experiments/results/bench_sph_ab.jsonl``): skin 0.45 dx
 with ``rebuild_every = 32`` and the trigger vs skin 0.6 dx every 8 steps: 1.15-1.44x faster at 21k
 fluid from rest (K 144 vs 160, one build per 32 steps), 1.05-1.2x at 5.5k in the developed surge
-(t = 0.3 s: a build every ~4.6 steps, where the fixed 8-step schedule goes stale and the driver
-halves it to 4).
+(t = 0.3 s: a build every ~4.6 steps, where the fixed 8-step schedule goes stale and the
+benchmark's regrow rule, ``driver._grow_rollout``, halves it to 4).
 
 Memory of reverse mode (``checkpoint=True``). By default two nested levels under ``jax.checkpoint``:
 

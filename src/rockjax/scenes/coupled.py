@@ -372,9 +372,9 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     amplitude factor r(t) rises as a half cosine from 0 to 1 over ``ramp_periods * period``
     seconds (fixed in the Config when the scene is built; 0 = full stroke from t = 0, an impulsive
     start). Wave flumes ramp up over a few periods: the paddle starts without a velocity jump,
-    which spares the weakly compressible fluid the pressure shock of an impulsive start. The flat runs to x = ``flat_length``,
-    then the beach rises at ``beach_slope`` (rise/run; the seed's is 4 %) for ``beach_length``
-    (default: up to 0.5 water depths above the still level). Wave gauges at ``gauge_x`` [m]
+    which spares the weakly compressible fluid the pressure shock of an impulsive start. The flat
+    runs to x = ``flat_length``, then the beach rises at ``beach_slope`` (rise/run; the seed's is
+    4 %) for ``beach_length`` (default: up to 0.5 water depths above the still level). Wave gauges at ``gauge_x`` [m]
     (default 0.3 and 0.6 of the flat). ``periodic_y`` makes the flume a
     thin periodic slab (a 2D flume experiment; ``flume_width`` defaults to 7 dx then, the
     narrowest period the neighbour search allows, else to 0.1 m). The paper's scale (70 m flat, ~65k particles) is
