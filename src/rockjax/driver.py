@@ -155,6 +155,9 @@ def _grow(config: Config, period: int, state: State, bits: int) -> tuple[Config,
         changes["neighbour_capacity"] = max(_round8(1.2 * int(state.nbrs.max_count)), config.neighbour_capacity + 8)
     if bits & Status.CELL_OVERFLOW:
         changes["cell_capacity"] = max(_round8(1.2 * int(state.nbrs.max_run)), config.cell_capacity + 8)
+    if bits & Status.WALL_PAIR_OVERFLOW:
+        changes["wall_pair_capacity"] = max(_round8(1.5 * int(state.nbrs.max_wall_count)),
+                                            config.wall_pair_capacity + 64)
     if bits & Status.NEIGHBOUR_STALE:
         if period == 1:
             raise SimulationError("neighbour list stale with a rebuild every step: particles move more than "
@@ -174,7 +177,7 @@ def _clear(state: State) -> State:
     zero = jnp.zeros((), jnp.int32)
     state = state.replace(status=zero)
     if state.nbrs is not None:
-        state = state.replace(nbrs=state.nbrs.replace(max_count=zero, max_run=zero))
+        state = state.replace(nbrs=state.nbrs.replace(max_count=zero, max_run=zero, max_wall_count=zero))
     return state
 
 

@@ -50,6 +50,7 @@ def refresh(state: State, config: Config) -> State:
     nbrs = nbrs.replace(
         max_count=jnp.maximum(nbrs.max_count, state.nbrs.max_count),
         max_run=jnp.maximum(nbrs.max_run, state.nbrs.max_run),
+        max_wall_count=jnp.maximum(nbrs.max_wall_count, state.nbrs.max_wall_count),
     )
     return state.replace(particles=particles, nbrs=nbrs, status=state.status | status)
 

@@ -112,11 +112,13 @@ class Status(enum.IntFlag):
     CONTACT_OVERFLOW = 64  #: more candidate block pairs (or contact points) than the buffer holds
     BLOCK_UNSTABLE = 128  #: dt exceeds the block stability limit (seed Eq 8) for the current Params
     BLOCK_PENETRATION = 256  #: a block contact penetrated deeper than the allowed fraction of its size
+    WALL_PAIR_OVERFLOW = 512  #: more fluid-wall pairs in the list than ``Config.wall_pair_capacity``
 
     @classmethod
     def growable(cls) -> "Status":
         """Bits that the driver cures by growing a buffer (or rebuilding more often) and rerunning."""
-        return cls.NEIGHBOUR_OVERFLOW | cls.CELL_OVERFLOW | cls.NEIGHBOUR_STALE | cls.CONTACT_OVERFLOW
+        return (cls.NEIGHBOUR_OVERFLOW | cls.CELL_OVERFLOW | cls.NEIGHBOUR_STALE | cls.CONTACT_OVERFLOW
+                | cls.WALL_PAIR_OVERFLOW)
 
     @classmethod
     def describe(cls, bits: int) -> str:
@@ -204,6 +206,12 @@ class Config:
         rebuild_every: the list is rebuilt (and particles re-sorted by cell) every this many steps.
         neighbour_capacity: K, neighbours kept per fluid-segment particle.
         cell_capacity: the most particles a run of ``run_length`` consecutive x-cells may hold.
+        wall_pair_capacity: length of the flat list of (fluid row, wall neighbour) pairs that the
+            WCSPH step sums the walls' quantities over (``NeighbourList.wall_row``); scene builders
+            size it from the initial state, the driver grows it on ``WALL_PAIR_OVERFLOW``.
+        row_tile: the WCSPH step sums over the pairs in blocks of this many fluid rows, so that
+            the per-pair intermediates stay in cache (0: all rows at once). A speed setting only:
+            the result does not depend on it beyond float rounding.
         scheme, kernel, viscosity, wall_model, density_diffusion: scheme choices.
         gamma: Tait exponent (WCSPH).
         cfl: Courant number used for the host time step and the in-jit stability check.
@@ -223,6 +231,8 @@ class Config:
     rebuild_every: int = 10
     neighbour_capacity: int = 96
     cell_capacity: int = 96
+    wall_pair_capacity: int = 0
+    row_tile: int = 512
     scheme: Scheme = Scheme.WCSPH
     kernel: KernelKind = KernelKind.WENDLAND_C2
     viscosity: Viscosity = Viscosity.ARTIFICIAL
@@ -251,6 +261,10 @@ class Config:
             raise ValueError(f"Config.rebuild_every must be >= 1 (got {self.rebuild_every})")
         if min(self.neighbour_capacity, self.cell_capacity) < 1:
             raise ValueError("Config.neighbour_capacity and cell_capacity must be >= 1")
+        if self.wall_pair_capacity < 0:
+            raise ValueError(f"Config.wall_pair_capacity must be >= 0 (got {self.wall_pair_capacity})")
+        if self.row_tile < 0:
+            raise ValueError(f"Config.row_tile must be >= 0 (0 = no blocks; got {self.row_tile})")
         if self.skin < 0:
             raise ValueError(f"Config.skin must be >= 0 (got {self.skin})")
         min_cell = min(c for c, n, p in zip(self.grid.cell_size, self.grid.shape, self.grid.periodic))
@@ -402,12 +416,21 @@ class NeighbourList:
         x_ref: [N, 3] positions at the last build (for the skin check) m.
         max_count: the largest neighbour count seen at the builds since the driver reset it.
         max_run: the fullest run of cells seen (compare with ``Config.cell_capacity``).
+        wall_row, wall_col: [wall_pair_capacity] int32, the (fluid row i, wall neighbour j) pairs
+            of ``idx`` (fluid i, wall j), in row order; slots past ``wall_count`` hold (0, 0) and
+            are masked. Sums onto the walls run over this short list instead of all of ``idx``.
+        wall_count: the number of such pairs at the last build; max_wall_count: the largest seen
+            since the driver reset it (compare with ``Config.wall_pair_capacity``).
     """
 
     idx: jax.Array
     x_ref: jax.Array
     max_count: jax.Array
     max_run: jax.Array
+    wall_row: jax.Array
+    wall_col: jax.Array
+    wall_count: jax.Array
+    max_wall_count: jax.Array
 
 
 @_pytree_dataclass

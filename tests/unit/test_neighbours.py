@@ -35,20 +35,37 @@ def _brute(x, nf, radius, lengths, periodic):
 _jit_rebuild = jax.jit(rebuild, static_argnums=1)
 
 
-def _check(x, n_fluid, periodic, radius=0.1, K=64, C=64, box=(1.0, 0.6, 0.5), pad_kinds=None):
+def _check(x, n_fluid, periodic, radius=0.1, K=64, C=64, box=(1.0, 0.6, 0.5), pad_kinds=None, M=None):
     x = np.asarray(x, np.float64)
     grid = GridSpec.covering((0, 0, 0), box, min_cell=radius, periodic=periodic)
     kind = np.array([Kind.FLUID] * n_fluid + [Kind.WALL] * (len(x) - n_fluid), np.int32)
     if pad_kinds is not None:
         kind[pad_kinds] = Kind.PAD
     cfg = Config(n_fluid=n_fluid, n_wall=len(x) - n_fluid, dt=1e-4, grid=grid, cutoff=radius, skin=0.0,
-                 neighbour_capacity=K, cell_capacity=C)
+                 neighbour_capacity=K, cell_capacity=C, wall_pair_capacity=n_fluid * K if M is None else M)
     P, nbrs, status = _jit_rebuild(_particles(x, kind), cfg)
     xs = np.asarray(P.x, np.float64)
     idx = np.asarray(nbrs.idx)
     kinds = np.asarray(P.kind)
     expected = _brute(xs, n_fluid, radius, grid.lengths, periodic)
+    if not int(status) & Status.NEIGHBOUR_OVERFLOW:
+        _check_wall_pairs(nbrs, idx, kinds, n_fluid, int(status))
     return cfg, xs, idx, kinds, expected, int(status), int(nbrs.max_count)
+
+
+def _check_wall_pairs(nbrs, idx, kinds, n_fluid, status):
+    """The flat (fluid row, wall) list holds exactly the list's fluid-wall pairs, in row order."""
+    want = [(i, int(j)) for i in range(n_fluid) if kinds[i] == Kind.FLUID
+            for j in idx[i] if j != i and kinds[j] == Kind.WALL]
+    count = int(nbrs.wall_count)
+    assert count == len(want)
+    M = nbrs.wall_row.shape[0]
+    if count > M:
+        assert status & Status.WALL_PAIR_OVERFLOW
+        return
+    assert not status & Status.WALL_PAIR_OVERFLOW
+    got = list(zip(np.asarray(nbrs.wall_row)[:count].tolist(), np.asarray(nbrs.wall_col)[:count].tolist()))
+    assert got == want
 
 
 NF_SEG, NW_SEG = 150, 60  # fixed segment lengths (real particles + padding): few shapes, few compiles
@@ -113,7 +130,10 @@ def test_overflow_is_reported():
     assert status & Status.NEIGHBOUR_OVERFLOW and max_count == 39
     *_, status, _ = _check(x, 40, (False, False, False), K=64, C=16)
     assert status & Status.CELL_OVERFLOW
-
+    walls = 0.3 + 0.02 * rng.uniform(size=(10, 3))
+    xw = np.concatenate([x, walls])
+    *_, status, _ = _check(xw, 40, (False, False, False), K=64, C=400, M=8)  # 400 fluid-wall pairs
+    assert status & Status.WALL_PAIR_OVERFLOW
 
 def test_out_of_domain_is_reported():
     x = np.array([[0.5, 0.3, 0.2], [0.52, 0.3, 0.2], [1.5, 0.3, 0.2]])

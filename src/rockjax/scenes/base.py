@@ -165,10 +165,24 @@ def empty_neighbours(config: Config, x) -> NeighbourList:
     """A neighbour list of the config's shapes holding no pairs (every slot is the row itself)."""
     nf = config.n_fluid
     zero = jnp.zeros((), jnp.int32)
+    none = jnp.zeros((config.wall_pair_capacity,), jnp.int32)
     return NeighbourList(
         idx=jnp.tile(jnp.arange(nf, dtype=jnp.int32)[:, None], (1, config.neighbour_capacity)),
-        x_ref=jnp.asarray(x), max_count=zero, max_run=zero,
+        x_ref=jnp.asarray(x), max_count=zero, max_run=zero, wall_row=none, wall_col=none, wall_count=zero,
+        max_wall_count=zero,
     )
+
+
+def wall_pair_capacity(fluid_x: np.ndarray, wall_x: np.ndarray, radius: float) -> int:
+    """Initial ``Config.wall_pair_capacity``: twice the (fluid, wall) pairs closer than ``radius``
+    [m] in the initial positions, plus one per fluid particle (water that spreads over a floor
+    meets more wall; the driver grows the list if it must)."""
+    from scipy.spatial import cKDTree
+
+    if len(fluid_x) == 0 or len(wall_x) == 0:
+        return 0
+    count = int(cKDTree(fluid_x).count_neighbors(cKDTree(wall_x), radius))
+    return int(math.ceil((2 * count + len(fluid_x)) / 8.0) * 8)
 
 
 def _capacities(h_factor: float, list_radius_dx: float, run_length: int) -> tuple[int, int]:
@@ -185,8 +199,8 @@ def particle_layout(*, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domai
                     surface_z: float | None, c0: float, scheme: Scheme, h_factor: float, skin_factor: float) -> dict:
     """Host arrays and static sizes for water + wall particles at spacing ``dx`` [m].
 
-    Returns a dict: ``grid``, ``cutoff`` and ``skin`` [m], ``neighbour_capacity`` and
-    ``cell_capacity``, and the particle arrays ``x`` [N, 3], ``kind``, ``vol`` (dx^3) and ``rho``
+    Returns a dict: ``grid``, ``cutoff`` and ``skin`` [m], ``neighbour_capacity``,
+    ``cell_capacity`` and ``wall_pair_capacity``, and the particle arrays ``x`` [N, 3], ``kind``, ``vol`` (dx^3) and ``rho``
     (hydrostatic below ``surface_z`` for WCSPH, else rho0).
     """
     cutoff = SUPPORT_FACTOR * h_factor * dx
@@ -202,7 +216,7 @@ def particle_layout(*, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domai
     run_length = 1 if (periodic[0] or grid.shape[0] < 3) else 3
     k, cell_cap = _capacities(h_factor, (cutoff + skin) / dx, run_length)
     return dict(grid=grid, cutoff=cutoff, skin=skin, neighbour_capacity=k, cell_capacity=cell_cap, x=x, kind=kind,
-                vol=vol, rho=rho)
+                vol=vol, rho=rho, wall_pair_capacity=wall_pair_capacity(fluid_x, wall_x, cutoff + skin))
 
 
 def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domain_lo, domain_hi,
@@ -221,8 +235,8 @@ def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray
     dt = stable_dt(params, scheme=scheme, viscosity=viscosity, cfl=cfl)
     config = Config(
         n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
-        rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap, scheme=scheme, kernel=kernel, viscosity=viscosity,
-        wall_model=wall_model, density_diffusion=density_diffusion, cfl=cfl,
+        rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap,
+        wall_pair_capacity=L["wall_pair_capacity"], scheme=scheme, kernel=kernel, viscosity=viscosity, wall_model=wall_model, density_diffusion=density_diffusion, cfl=cfl,
     )
     state = make_state(config=config, x=x, kind=kind, vol=vol, rho=rho)
     meta = dict(meta, name=name, dx=dx)

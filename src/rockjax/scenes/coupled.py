@@ -162,8 +162,8 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     dt = min(dt, dt_blocks)
     meta["block_normal_stiffness"] = float(bparams.normal_stiffness)
     config = Config(n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
-                    rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap, scheme=scheme,
-                    kernel=KernelKind.WENDLAND_C2, viscosity=Viscosity.ARTIFICIAL, wall_model=WallModel.ADAMI,
+                    rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap,
+                    wall_pair_capacity=L["wall_pair_capacity"], scheme=scheme, kernel=KernelKind.WENDLAND_C2, viscosity=Viscosity.ARTIFICIAL, wall_model=WallModel.ADAMI,
                     density_diffusion=DensityDiffusion.FOURTAKAS, cfl=cfl, blocks=bconfig, coupling=coupling)
     state = make_state(config=config, x=x, kind=kind, vol=vol, rho=rho)
     if coupling == Coupling.BOUNDARY_PARTICLES:

@@ -11,12 +11,72 @@ are transposes of the fluid rows (``transpose_sum``), numerator and denominator 
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import jax
 import jax.numpy as jnp
 
 from ..types import Config, Kind
-from .neighbours import Pairs, take, transpose_sum
+from .neighbours import Pairs, min_image, safe_norm, take, transpose_sum
 
-__all__ = ["adami_pressure"]
+__all__ = ["adami_pressure", "adami_terms", "adami_finish", "WallPairs", "wall_pair_geometry", "adami_sums"]
+
+
+class WallPairs(NamedTuple):
+    """Geometry of the flat (fluid row, wall) pair list (``NeighbourList.wall_row`` / ``wall_col``).
+
+    ``row``, ``col``: [M] indices; ``d``: three [M] arrays ``x_row - x_col`` (minimum image);
+    ``r``: [M] m; ``valid``: [M] True for the first ``wall_count`` slots.
+    """
+
+    row: jax.Array
+    col: jax.Array
+    d: tuple
+    r: jax.Array
+    valid: jax.Array
+
+
+def wall_pair_geometry(x, nbrs, grid) -> WallPairs:
+    """``WallPairs`` for positions ``x`` [N, 3] and the list ``nbrs`` (a ``NeighbourList``)."""
+    row, col = nbrs.wall_row, nbrs.wall_col
+    d = tuple(min_image(take(x[:, a], row) - take(x[:, a], col), a, grid) for a in range(3))
+    r = safe_norm(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    valid = jnp.arange(row.shape[0]) < nbrs.wall_count
+    return WallPairs(row=row, col=col, d=d, r=r, valid=valid)
+
+
+def adami_sums(wp: WallPairs, p, rho, gravity, h, w_fn, n: int):
+    """The wall sums of ``adami_terms`` over the flat pair list: [n, 2] (``adami_finish`` takes them).
+
+    ``p``, ``rho``: [>= n_fluid] the fluid rows' pressures Pa and densities kg/m^3.
+    """
+    w = jnp.where(wp.valid, w_fn(wp.r, h), 0.0)
+    g_d = wp.d[0] * gravity[0] + wp.d[1] * gravity[1] + wp.d[2] * gravity[2]  # g . (x_f - x_w)
+    vals = jnp.stack([w * (take(p, wp.row) - take(rho, wp.row) * g_d), w], axis=-1)
+    return jax.ops.segment_sum(vals, wp.col, num_segments=n)
+
+
+def adami_terms(pr: Pairs, p_rows, rho_rows, kind, gravity, h, w_fn, *, kind_j=None):
+    """Each pair's contribution to the wall sums: [R, K, 2] ``(W (p_f - rho_f g . (x_f - x_w)), W)``.
+
+    Args:
+        pr: pair geometry of a block of fluid rows; p_rows, rho_rows: [R] the rows' pressures Pa
+        and densities kg/m^3; kind: [N]; gravity: [3] m/s^2; h: smoothing length m; w_fn: kernel
+        W(r, h); kind_j: optional [R, K] ``kind[pr.idx]`` if already gathered.
+    Non-zero only for fluid rows and wall neighbours; summed onto the walls by ``transpose_sum``.
+    """
+    kind_j = take(kind, pr.idx) if kind_j is None else kind_j
+    use = pr.mask & (pr.rows.of(kind)[:, None] == Kind.FLUID) & (kind_j == Kind.WALL)
+    w = jnp.where(use, w_fn(pr.r, h), 0.0)
+    g_d = pr.d[0] * gravity[0] + pr.d[1] * gravity[1] + pr.d[2] * gravity[2]  # g . (x_f - x_w)
+    return jnp.stack([w * (p_rows[:, None] - rho_rows[:, None] * g_d), w], axis=-1)
+
+
+def adami_finish(sums, p, kind):
+    """Wall pressures from the summed ``adami_terms`` ``sums`` [N, 2]: [N] (``p`` off the walls)."""
+    num, den = sums[:, 0], sums[:, 1]
+    pw = jnp.where(den > 0, num / jnp.where(den > 0, den, 1.0), 0.0)
+    return jnp.where(kind == Kind.WALL, jnp.maximum(pw, 0.0), p)
 
 
 def adami_pressure(pr: Pairs, p, rho, kind, gravity, h, w_fn, config: Config, *, kind_j=None):
@@ -32,13 +92,6 @@ def adami_pressure(pr: Pairs, p, rho, kind, gravity, h, w_fn, config: Config, *,
     """
     if config.n_wall == 0:
         return p
-    nf = config.n_fluid
-    n = config.n_particles
-    kind_j = take(kind, pr.idx) if kind_j is None else kind_j
-    use = pr.mask & (kind[:nf, None] == Kind.FLUID) & (kind_j == Kind.WALL)
-    w = jnp.where(use, w_fn(pr.r, h), 0.0)
-    g_d = pr.d[0] * gravity[0] + pr.d[1] * gravity[1] + pr.d[2] * gravity[2]  # g . (x_f - x_w)
-    both = transpose_sum(jnp.stack([w * (p[:nf, None] - rho[:nf, None] * g_d), w], axis=-1), pr.idx, n)
-    num, den = both[:, 0], both[:, 1]
-    pw = jnp.where(den > 0, num / jnp.where(den > 0, den, 1.0), 0.0)
-    return jnp.where(kind == Kind.WALL, jnp.maximum(pw, 0.0), p)
+    rows = pr.rows
+    terms = adami_terms(pr, rows.of(p), rows.of(rho), kind, gravity, h, w_fn, kind_j=kind_j)
+    return adami_finish(transpose_sum(terms, pr.idx, config.n_particles), p, kind)
