@@ -294,8 +294,7 @@ def _select(hit, capacity: int):
     """
     n, t = hit.shape
     w_count = t // 32
-    words = (hit.reshape(n, w_count, 32).astype(jnp.uint32)
-             << jnp.arange(32, dtype=jnp.uint32)).sum(-1, dtype=jnp.uint32)
+    words = _pack_bits(hit)
     pc = jax.lax.population_count(words).astype(jnp.int32)
     incl = _prefix_sum(pc.astype(jnp.float32)).astype(jnp.int32)
     count = incl[:, -1]
@@ -306,13 +305,7 @@ def _select(hit, capacity: int):
     k = jnp.arange(capacity, dtype=jnp.int32)[None, :]
     word = jnp.take_along_axis(words, wk, axis=1)
     rank = k - jnp.take_along_axis(incl - pc, wk, axis=1)
-    pos = jnp.zeros_like(rank)
-    for s in (16, 8, 4, 2, 1):  # select the rank-th set bit of the word
-        low = jax.lax.population_count((word >> pos.astype(jnp.uint32)) & jnp.uint32((1 << s) - 1)).astype(jnp.int32)
-        go = rank >= low
-        rank = jnp.where(go, rank - low, rank)
-        pos = jnp.where(go, pos + s, pos)
-    return wk * 32 + pos, count
+    return wk * 32 + _nth_set_bit(word, rank), count
 
 
 def build(x, kind, config: Config):
@@ -367,6 +360,23 @@ def build(x, kind, config: Config):
     return idx, status.astype(jnp.int32), max_count.astype(jnp.int32), max_run
 
 
+def _nth_set_bit(word, n):
+    """Position (0-31) of the ``n``-th (0-based) set bit of uint32 ``word`` (elementwise; 5 halvings)."""
+    pos = jnp.zeros(n.shape, jnp.int32)
+    for s in (16, 8, 4, 2, 1):
+        low = jax.lax.population_count((word >> pos.astype(jnp.uint32)) & jnp.uint32((1 << s) - 1)).astype(jnp.int32)
+        go = n >= low
+        n = jnp.where(go, n - low, n)
+        pos = jnp.where(go, pos + s, pos)
+    return pos
+
+
+def _pack_bits(hit):
+    """[R, T] bool (T a multiple of 32) -> [R, T // 32] uint32 words, bit b of word w = hit[:, 32 w + b]."""
+    n, t = hit.shape
+    return (hit.reshape(n, t // 32, 32).astype(jnp.uint32) << jnp.arange(32, dtype=jnp.uint32)).sum(-1, dtype=jnp.uint32)
+
+
 def wall_pairs(idx, kind, config: Config):
     """The list's (fluid row, wall neighbour) pairs as a flat list.
 
@@ -376,21 +386,38 @@ def wall_pairs(idx, kind, config: Config):
         ``(row [M], col [M], count, status)`` with M = ``config.wall_pair_capacity``: the pairs in
         row order, (0, 0) past ``count``; ``WALL_PAIR_OVERFLOW`` if ``count > M``.
 
-    Ranks are per-row prefix sums (``_prefix_sum``, exact: a row has at most K hits) offset by a
-    prefix sum of the row counts; each hit is written to its slot by one scatter.
+    Gather-only (no scatter over the [n_fluid, K] slots): slot m finds its row by a binary search
+    in the rows' cumulative hit counts, then its column as the right set bit of the row's packed
+    hit mask.
     """
-    nf, M = config.n_fluid, config.wall_pair_capacity
+    nf, K = idx.shape
+    M = config.wall_pair_capacity
+    if nf == 0 or M == 0:
+        count = jnp.zeros((), jnp.int32)
+        if nf:
+            count = jnp.sum((take(kind, idx) == Kind.WALL) & (kind[:nf, None] == Kind.FLUID), dtype=jnp.int32)
+        status = jnp.where(count > M, Status.WALL_PAIR_OVERFLOW, 0).astype(jnp.int32)
+        return jnp.zeros((M,), jnp.int32), jnp.zeros((M,), jnp.int32), count, status
     hit = (take(kind, idx) == Kind.WALL) & (kind[:nf, None] == Kind.FLUID)
-    rank = _prefix_sum(hit.astype(jnp.float32)).astype(jnp.int32)  # inclusive, per row
-    per_row = rank[:, -1]
-    offset = _cumsum_1d(per_row.astype(jnp.float32)).astype(jnp.int32) - per_row
-    count = offset[-1] + per_row[-1] if nf else jnp.zeros((), jnp.int32)
-    slot = jnp.where(hit, offset[:, None] + rank - 1, M)  # M: dropped
-    rows = jnp.broadcast_to(jnp.arange(nf, dtype=jnp.int32)[:, None], idx.shape)
-    row = jnp.zeros((M,), jnp.int32).at[slot].set(rows, mode="drop")
-    col = jnp.zeros((M,), jnp.int32).at[slot].set(idx, mode="drop")
+    kp = -(-K // 32) * 32
+    words = _pack_bits(jnp.pad(hit, ((0, 0), (0, kp - K))))  # [nf, W]
+    pc = jax.lax.population_count(words).astype(jnp.int32)
+    word_end = jnp.cumsum(pc, axis=1)  # [nf, W] inclusive, W <= 8
+    per_row = word_end[:, -1]
+    row_end = _cumsum_1d(per_row.astype(jnp.float32)).astype(jnp.int32)  # inclusive, exact below 2^24
+    count = row_end[-1]
+    m = jnp.arange(M, dtype=jnp.int32)
+    valid = m < count
+    row = jnp.minimum(jnp.searchsorted(row_end, m, side="right").astype(jnp.int32), nf - 1)
+    rank = m - (take(row_end, row) - take(per_row, row))  # rank of slot m within its row
+    w = jnp.zeros((M,), jnp.int32)
+    for j in range(words.shape[1] - 1):  # word holding the rank-th hit: number of words ending at or before it
+        w = w + (take(word_end[:, j], row) <= rank).astype(jnp.int32)
+    before = jnp.where(w > 0, take(word_end.reshape(-1), row * words.shape[1] + jnp.maximum(w - 1, 0)), 0)
+    bit = _nth_set_bit(take(words.reshape(-1), row * words.shape[1] + w), rank - before)
+    col = take(idx.reshape(-1), row * K + jnp.minimum(w * 32 + bit, K - 1))
     status = jnp.where(count > M, Status.WALL_PAIR_OVERFLOW, 0).astype(jnp.int32)
-    return row, col, count.astype(jnp.int32), status
+    return jnp.where(valid, row, 0), jnp.where(valid, col, 0), count.astype(jnp.int32), status
 
 
 def rebuild(particles: Particles, config: Config):
