@@ -7,7 +7,9 @@ c0 = 10 sqrt(2 g H) = 44.3 m/s, fluid on the same cell-centred lattice dx = 0.5 
 ``scenes.dam_break`` (its default *is* this geometry, z up instead of the peers' y up) for the
 same physical time as the peers' WCSPH window (steps x dt of PySPH WCSPH: 300 / 150 / 60 steps
 of 0.3 dx / c0 -> 72.6 / 23.1 / 6.0 ms), from the start of the collapse, output off: one jitted
-chunk (``make_rollout``) timed after compilation, best of ``--reps``. Its own time step is
+chunk (a scan of ``rollout.scheduled_step``, the schedule ``simulate`` runs: list rebuilt at the
+start, on displacement and at least every 32 steps) timed after compilation, best of ``--reps``.
+Its own time step is
 0.25 h / c0 = 0.325 dx / c0 (h = 1.3 dx), so it takes slightly fewer steps than the peers.
 
 Peers: if their venv exists (``$PEER_VENV``, default ``~/.cache/peer-venv``; install with
@@ -82,14 +84,19 @@ def _monitor():
         sys.path.pop(0)
 
 
-def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None) -> dict:
+def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None, period: int | None = None) -> dict:
     """Time rockjax on the peers' 3D dam break of ``size`` for the peers' WCSPH physical window
-    (or for ``blocks`` neighbour-list blocks of steps when given: the scaling mode)."""
+    (or for ``blocks`` x ``period`` steps when ``blocks`` is given: the scaling mode).
+
+    The steps are scanned as ``simulate`` scans them (``rollout.scheduled_step``): the list is
+    rebuilt at step 0, on displacement, and at least every ``period`` steps (default the
+    driver's, ``driver.DEFAULT_REBUILD_PERIOD``).
+    """
     import jax
 
     import rockjax as rj
-    from rockjax.driver import _grow_rollout, resize
-    from rockjax.rollout import make_rollout
+    from rockjax.driver import DEFAULT_REBUILD_PERIOD, _grow, resize
+    from rockjax.rollout import scheduled_step
     from rockjax.step import prime
 
     nx = NX[size]
@@ -102,12 +109,13 @@ def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None)
     counts = scene.counts()
     regrows = 0
     compile_s = 0.0
+    period = max(config.rebuild_every, DEFAULT_REBUILD_PERIOD) if period is None else int(period)
     while True:
-        k = config.rebuild_every
-        n_blocks = blocks if blocks else max(1, round(t_window / (config.dt * k)))
+        steps = blocks * period if blocks else max(1, round(t_window / config.dt))
         t0 = time.perf_counter()
         state = jax.jit(lambda s, p: prime(s, p, config))(state0, params)
-        chunk = jax.jit(lambda s, p: make_rollout(config, n_blocks, checkpoint=False)(s, p)[0])
+        one = scheduled_step(config, period=period)
+        chunk = jax.jit(lambda s, p: jax.lax.scan(lambda s, _: (one(s, p), None), s, None, length=steps)[0])
         chunk_c = chunk.lower(state, params).compile()
         compile_s += time.perf_counter() - t0
         out = jax.block_until_ready(chunk_c(state, params))
@@ -119,9 +127,8 @@ def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None)
         regrows += 1
         if regrows > 6:
             raise RuntimeError(f"rockjax {size}/{scheme}: gave up regrowing ({rj.Status.describe(bits)})")
-        config = _grow_rollout(config, out if int(out.status) else state, bits)
+        config, period = _grow(config, period, out if int(out.status) else state, bits)
         state0 = resize(state0, config)
-    steps = n_blocks * config.rebuild_every
     Mon = _monitor()
     mon = Mon().start() if Mon else None
     walls, cpus = [], []
@@ -137,7 +144,7 @@ def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None)
     return {"code": "rockjax", "version": rj.__version__, "scheme": scheme, "case": "dambreak3d_throughput",
             "size": size, "n_fluid": nf, "n_wall": counts["wall"], "dx": dx, "dt": config.dt, "steps": steps,
             "t_window_s": round(steps * config.dt, 6), "dtype": str(state.particles.x.dtype),
-            "rebuild_every": config.rebuild_every, "K": config.neighbour_capacity, "regrows": regrows,
+            "rebuild_period": period, "K": config.neighbour_capacity, "regrows": regrows,
             "wall_s": round(wall, 4), "cpu_s": round(cpu, 4),
             "particle_steps_per_s": round(nf * steps / wall, 1),
             "cpu_particle_steps_per_s": round(nf * steps / max(cpu, 1e-9), 1),
@@ -211,7 +218,7 @@ def main(argv=None):
     ap.add_argument("--out", default=None, help="also append the JSON lines to this file")
     ap.add_argument("--scaling", action="store_true",
                     help="rockjax only: throughput and peak memory vs size (up to 300k), --blocks list blocks each")
-    ap.add_argument("--blocks", type=int, default=2, help="neighbour-list blocks per timed chunk (--scaling)")
+    ap.add_argument("--blocks", type=int, default=2, help="rebuild periods per timed chunk (--scaling)")
     ap.add_argument("--case", nargs=2, metavar=("SIZE", "SCHEME"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
 
