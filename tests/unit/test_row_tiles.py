@@ -11,12 +11,21 @@ import pytest
 
 import rockjax as rj
 from rockjax.sph import wcsph
-from rockjax.sph.neighbours import pairs, scan_rows
+from rockjax.sph.neighbours import block_plan, pairs, scan_rows
 from rockjax.step import advance, prime
 
 
+def test_block_plan_balances_blocks():
+    assert block_plan(686, 512) == (343, 2)
+    assert block_plan(21296, 512) == (508, 42)
+    for n in range(1, 300):
+        for tile in (1, 5, 17, 64):
+            size, count = block_plan(n, tile)
+            assert size <= max(tile, 1) and (count - 1) * size < n <= count * size
+
+
 def test_scan_rows_covers_each_row_once():
-    n, tile = 23, 5
+    n, tile = 23, 5  # blocks of 5: the last one overlaps its predecessor by 2 rows
 
     def fn(rows, own, acc):
         ids = rows.ids()
@@ -49,7 +58,8 @@ def _run(config, params, state, steps=5):
 def test_tiled_step_equals_untiled(primed, x64):
     config, params, state = primed
     nf = config.n_fluid
-    assert nf > 40 and nf % 17, "the check needs several blocks and a ragged last one"
+    size, count = block_plan(nf, 17)
+    assert count > 2 and nf % size, "the check needs several blocks and an overlapping last one"
     ref = jax.jit(lambda s: _run(config, params, s))(state).particles
     tiled = config.replace(row_tile=17)
     out = jax.jit(lambda s: _run(tiled, params, s))(state).particles
@@ -99,3 +109,12 @@ def test_flat_wall_sums_equal_row_transpose(primed, x64):
         np.testing.assert_allclose(np.asarray(P.drho_dt)[nf:], np.asarray(rate)[nf:], rtol=1e-10,
                                    atol=1e-10 * float(np.abs(rate).max()))
     assert np.abs(np.asarray(P.p)[nf:]).max() > 0
+
+
+def test_default_row_tile_depends_on_list_size():
+    sc = rj.scenes.dam_break(dx=0.5 / 5, column_height=0.5, tank_length=1.0, tank_width=0.5, column_width=0.4)
+    c = sc.config
+    assert c.row_tile is None and c.effective_row_tile == 0  # a few hundred rows: one block
+    big = c.replace(n_fluid=2**20 // c.neighbour_capacity + 1)
+    assert big.effective_row_tile == 512
+    assert c.replace(row_tile=0).effective_row_tile == 0 and c.replace(row_tile=64).effective_row_tile == 64

@@ -171,13 +171,25 @@ def pairs(x, kind, idx, config: Config, *, rows: Optional[Rows] = None) -> Pairs
     return Pairs(d=d, r=r, r2=r2, idx=idx, mask=mask, rows=rows)
 
 
+def block_plan(n_rows: int, tile: int) -> tuple[int, int]:
+    """``(size, count)`` of the row blocks for at most ``tile`` rows each: ``count = ceil(n_rows /
+    tile)`` blocks of balanced size ``ceil(n_rows / count)`` (so 686 rows in blocks of <= 512 are
+    two blocks of 343, not 512 + an overlapping 512)."""
+    nt = -(-n_rows // tile)
+    size = -(-n_rows // nt)
+    if (nt - 1) * size >= n_rows:  # cannot happen while (nt - 1)^2 < n_rows; keep the plain plan
+        size = tile
+    return size, nt
+
+
 def scan_rows(fn, n_rows: int, tile: int, carry):
     """Run a pass over the fluid rows in blocks of ``tile`` rows.
 
     ``fn(rows: Rows, own, carry) -> (carry, out)``: ``out`` a pytree of [rows.size, ...] arrays;
     ``own`` [rows.size] bool marks the rows this block contributes (None: all), for sums that
-    ``fn`` scatters into ``carry`` (the last block is shifted back to end at ``n_rows``, so it
-    overlaps its predecessor). Returns ``(carry, out)`` with ``out`` [n_rows, ...].
+    ``fn`` scatters into ``carry`` (blocks have the balanced size of ``block_plan``; if that does
+    not divide ``n_rows`` the last block is shifted back to end at ``n_rows`` and overlaps its
+    predecessor). Returns ``(carry, out)`` with ``out`` [n_rows, ...].
 
     A pass over all rows at once materialises every [n, K] pair intermediate in memory; in blocks
     they stay in cache (measured 2x faster for the momentum sum at 21k rows, tiles of 256-1024 rows). With
@@ -185,7 +197,7 @@ def scan_rows(fn, n_rows: int, tile: int, carry):
     """
     if tile <= 0 or n_rows <= tile:
         return fn(Rows(0, n_rows), None, carry)
-    nt = -(-n_rows // tile)
+    tile, nt = block_plan(n_rows, tile)
     tail = n_rows - (nt - 1) * tile
 
     def body(carry, i):

@@ -205,7 +205,7 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -
     same mid-step velocities, so the pressure is never half a step behind the positions (a lag
     that was measured to make the scheme unstable at Courant 0.25).
 
-    Two passes over the rows' pairs, each in blocks of ``config.row_tile`` rows (``scan_rows``;
+    Two passes over the rows' pairs, each in blocks of ``config.effective_row_tile`` rows (``scan_rows``;
     the pair geometry is recomputed in the second pass rather than stored, since a stored [n, K]
     array costs more memory traffic than its arithmetic): (1) continuity, then each row's new
     density and pressure; (2) the momentum sum. Between them, the walls' sums (Adami pressure or
@@ -232,7 +232,7 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -
         rho_new = jnp.where(rows.of(evolving), rho_i + dt * drho, rho_i)
         return carry, (drho, rho_new, tait_pressure(rho_new, f.rho0, f.c0, config.gamma))
 
-    _, (drho_f, rho_f, p_f) = scan_rows(continuity_pass, nf, config.row_tile, None)
+    _, (drho_f, rho_f, p_f) = scan_rows(continuity_pass, nf, config.effective_row_tile, None)
     rho_w = P.rho[nf:]
     drho_w = jnp.zeros((nw,), P.rho.dtype)
     if nw:
@@ -256,7 +256,7 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -
         t = pair_terms(pr, kind, params, config)
         return carry, _acceleration_rows(pr, t, v_half, rho_new, p, P.vol, kind, params, config)
 
-    _, a_f = scan_rows(momentum_pass, nf, config.row_tile, None)
+    _, a_f = scan_rows(momentum_pass, nf, config.effective_row_tile, None)
     a = jnp.concatenate([a_f, jnp.zeros((nw, 3), a_f.dtype)])
     v_new = jnp.where(fluid[:, None], v_half + 0.5 * dt * a, v_half)
     return P.replace(x=x_new, v=v_new, a=a, rho=rho_new, drho_dt=drho_dt, p=p)
