@@ -16,8 +16,8 @@ Peers: if their venv exists (``$PEER_VENV``, default ``~/.cache/peer-venv``; ins
 ``shared/peers/install_peers.sh``, ~7 min) and ``--run-peers`` is given, each peer case runs in
 its own subprocess right after rockjax's case, so the ratios come from one session on one
 machine. Otherwise the recorded peer figures are used: ``--peer-results`` (default
-``experiments/results/peers_2026-11-23.jsonl``, a copy of ``shared/peers/results``; measured on
-an idle machine of this kind on 2026-11-23).
+``experiments/results/peers_2026-11-24.jsonl``, a copy of ``shared/peers/results``; measured on
+an idle machine of this kind on 2026-11-24, an AMD EPYC Zen 5 2-core machine).
 
 Printed per case and code: ``particle_steps_per_s`` (fluid particles x steps / wall s, the
 peers' metric), ``sim_s_per_wall_s`` (physical time per wall second: credits larger time steps),
@@ -52,7 +52,7 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PEERS_DIR = os.environ.get("PEERS_DIR", os.path.normpath(os.path.join(ROOT, "..", "shared", "peers")))
 PEER_VENV = os.environ.get("PEER_VENV", os.path.expanduser("~/.cache/peer-venv"))
-DEFAULT_PEER_RESULTS = os.path.join(ROOT, "experiments", "results", "peers_2026-11-23.jsonl")
+DEFAULT_PEER_RESULTS = os.path.join(ROOT, "experiments", "results", "peers_2026-11-24.jsonl")
 
 G = 9.81
 NX = {"5k": 14, "20k": 22, "80k": 34, "160k": 43, "300k": 53}  # 2 nx^3 fluid particles (160k, 300k: scaling only)
