@@ -8,8 +8,8 @@ Table 2), unshifted and after the best time shift in [0, 0.4] (gate release), th
 the run with everything compiled (``wall_s``: the run is done twice, the first one's time with
 compiles is ``wall_s_with_compile``), steps, CPU utilisation and the load average (other agents share the 2 cores: compare within one
 run). With ``--out`` the records go to a JSONL file and a PNG plots error
-against wall time, with the peer codes' figures from ``shared/peers/results`` (same metric, same
-machine class) when that folder is there.
+against wall time, with the peer codes' figures from ``experiments/results/peers_*.jsonl`` (same
+metric, measured on the same machine; ``peers_SOURCE.md``).
 
 Usage: ``python experiments/sph_time_vs_error.py [--res 8 10 14 20] [--schemes wcsph]
 [--out experiments/results/sph_time_vs_error]``.
@@ -66,9 +66,11 @@ def run(scheme: str, res: int) -> dict:
             "load_before": round(load0, 2), "load_after": round(os.getloadavg()[0], 2)}
 
 
-def _peers(shared: pathlib.Path) -> list[dict]:
+def _peers(results: pathlib.Path) -> list[dict]:
+    """The peers' 2D dam-break records in ``results/peers_*.jsonl`` (the campaign copied next to
+    rockjax's results, measured on the same machine; ``peers_SOURCE.md`` says where from)."""
     out = []
-    for f in sorted((shared / "peers" / "results").glob("*.jsonl")):
+    for f in sorted(results.glob("peers_*.jsonl")):
         for line in f.read_text().splitlines():
             try:
                 d = json.loads(line)
@@ -79,7 +81,7 @@ def _peers(shared: pathlib.Path) -> list[dict]:
     return out
 
 
-def plot(records: list[dict], png: pathlib.Path, shared: pathlib.Path | None) -> None:
+def plot(records: list[dict], png: pathlib.Path, peer_dir: pathlib.Path | None) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -87,7 +89,7 @@ def plot(records: list[dict], png: pathlib.Path, shared: pathlib.Path | None) ->
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharex=True)
     keys = [("front_rms_rel_err", "unshifted"), ("front_rms_rel_err_best_shift", "best time shift")]
-    peers = _peers(shared) if shared is not None else []
+    peers = _peers(peer_dir) if peer_dir is not None else []
     for ax, (key, title) in zip(axes, keys):
         for scheme in sorted({r["scheme"] for r in records}):
             rs = sorted((r for r in records if r["scheme"] == scheme), key=lambda r: r["wall_s"])
@@ -115,8 +117,7 @@ def main(argv=None):
     ap.add_argument("--out", default=None, help="path stem for .jsonl and .png (e.g. experiments/results/sph_time_vs_error)")
     ap.add_argument("--plot-only", action="store_true", help="re-plot the records in OUT.jsonl")
     args = ap.parse_args(argv)
-    shared = pathlib.Path(__file__).resolve().parents[2] / "shared"
-    shared = shared if shared.exists() else None
+    peer_dir = pathlib.Path(__file__).resolve().parent / "results"
     records = []
     if args.out and args.plot_only:
         records = [json.loads(ln) for ln in pathlib.Path(args.out + ".jsonl").read_text().splitlines() if ln]
@@ -132,7 +133,7 @@ def main(argv=None):
                     with p.open("a") as fh:
                         fh.write(json.dumps(rec) + "\n")
     if args.out and records:
-        plot(records, pathlib.Path(args.out + ".png"), shared)
+        plot(records, pathlib.Path(args.out + ".png"), peer_dir)
 
 
 if __name__ == "__main__":

@@ -298,15 +298,50 @@ def _cell_starts(ids, n_cells: int):
     return jnp.concatenate([jnp.zeros((1,), jnp.int32), incl[:n_cells]])
 
 
-def _select(hit, capacity: int):
+def _candidate_words(x_rows, xm, start, end, pos_rows, L: int, grid: GridSpec, radius2: float):
+    """Packed hit mask of the candidate slots: [R_rows, W] uint32.
+
+    Candidate slot ``t = r L + l`` of a row is position ``start[:, r] + l`` of the merged order
+    (``l < end - start``); it is a hit if that particle is within ``sqrt(radius2)`` and is not the
+    row itself (``pos_rows``). Bit b of word w is slot ``32 w + b`` (W = ceil(R L / 32)), as
+    ``_pack_bits`` of the [R_rows, R L] mask would give.
+
+    The words are produced directly, 32 bit planes fused into one loop over [R_rows, W]: computing
+    the [R_rows, R, L] mask and then padding and packing it measured 3x slower (36 -> 13 ms at
+    21k rows, 25 ranges of 40 slots), since XLA:CPU does the reshape + pad + small-axis reduction
+    in separate passes over the big mask. Needs ``L % 8 == 0`` (a byte never straddles two ranges).
+    """
+    if L % 8:
+        raise ValueError(f"_candidate_words: range capacity L must be a multiple of 8 (got {L})")
+    n_rows, R = start.shape
+    L8 = L // 8
+    n_bytes = R * L8
+    W = -(-n_bytes // 4)
+    length = end - start
+    xi = [x_rows[:, a, None] for a in range(3)]
+    words = jnp.zeros((n_rows, W), jnp.uint32)
+    for q in range(4):  # byte q of every word: slots 32 w + 8 q + j, j < 8, all in range (4 w + q) // L8
+        byte = 4 * np.arange(W) + q
+        r = np.minimum(byte // L8, R - 1)
+        off = (byte % L8) * 8
+        first = start[:, r] + off
+        left = jnp.where(byte < n_bytes, length[:, r] - off, 0)  # slots of the range from this byte on
+        for j in range(8):
+            slot = first + j
+            d = [min_image(xi[a] - take(xm[a], slot), a, grid) for a in range(3)]
+            hit = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < radius2) & (j < left) & (slot != pos_rows[:, None])
+            words = words | (hit.astype(jnp.uint32) << (8 * q + j))
+    return words
+
+
+def _select(words, capacity: int):
     """Compact each row's hits: ``(t [R, capacity] column of the k-th hit, count [R])``.
 
     Args:
-        hit: [R, T] bool, T a multiple of 32. Columns past a row's count are arbitrary (masked later).
+        words: [R, W] uint32, bit b of word w = hit in column 32 w + b (``_pack_bits``). Columns
+            past a row's count are arbitrary (masked later).
     """
-    n, t = hit.shape
-    w_count = t // 32
-    words = _pack_bits(hit)
+    n, w_count = words.shape
     pc = jax.lax.population_count(words).astype(jnp.int32)
     incl = _prefix_sum(pc.astype(jnp.float32)).astype(jnp.int32)
     count = incl[:, -1]
@@ -346,19 +381,13 @@ def build(x, kind, config: Config):
     start, end = _ranges(c[:nf], starts, sg)
     L, ratio = range_capacity(config)
     R = start.shape[1]
-    T = -(-R * L // 32) * 32
-    ar = jnp.arange(L, dtype=jnp.int32)
-    slot = start[:, :, None] + ar  # [nf, R, L] positions in the merged order
-    ok = ar[None, None, :] < (end - start)[:, :, None]
     # materialise the merged-order coordinates: fused into the per-slot gather they would be
     # recomputed (a gather of a gather) for every slot
     xm = jax.lax.optimization_barrier([jnp.concatenate([x[:, a][perm], jnp.zeros((L,), x.dtype)]) for a in range(3)])
-    d = [min_image(x[:nf, a, None, None] - take(xm[a], slot), a, config.grid) for a in range(3)]
-    hit = ok & (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < config.list_radius**2) & (slot != pos_f[:, None, None])
-    hit = jnp.pad(hit.reshape(nf, R * L), ((0, 0), (0, T - R * L)))
-    t, count = _select(hit, K)
+    words = _candidate_words(x[:nf], xm, start, end, pos_f, L, config.grid, config.list_radius**2)
+    t, count = _select(words, K)
     r = jnp.minimum(t // L, R - 1)
-    merged_pos = jnp.take_along_axis(start, r, axis=1) + t % L
+    merged_pos = take(start.reshape(-1), ar_f[:, None] * R + r) + t % L
     k = jnp.arange(K, dtype=jnp.int32)[None, :]
     pm = jnp.concatenate([perm, jnp.zeros((L,), jnp.int32)])
     idx = jnp.where(k < count[:, None], take(pm, merged_pos), ar_f[:, None])
