@@ -349,9 +349,13 @@ def _select(words, capacity: int):
     # word holding the k-th hit = number of words whose inclusive count is <= k
     marks = jnp.zeros((n, capacity + 1), jnp.float32).at[rows, jnp.minimum(incl, capacity)].add(1.0)
     wk = jnp.minimum(_prefix_sum(marks[:, :capacity]).astype(jnp.int32), w_count - 1)
+    # the gathers' indices and operand materialised first: fused into the gathers, XLA:CPU
+    # recomputed them per gathered element (build 51 -> 45 ms at 21k rows, 32 words, K = 160;
+    # flat ``take``s instead of ``take_along_axis`` were 6x slower inside the build)
+    wk, excl = jax.lax.optimization_barrier((wk, incl - pc))
     k = jnp.arange(capacity, dtype=jnp.int32)[None, :]
-    word = jnp.take_along_axis(words, wk, axis=1)
-    rank = k - jnp.take_along_axis(incl - pc, wk, axis=1)
+    word = jnp.take_along_axis(words, wk, axis=1, mode="promise_in_bounds")
+    rank = k - jnp.take_along_axis(excl, wk, axis=1, mode="promise_in_bounds")
     return wk * 32 + _nth_set_bit(word, rank), count
 
 
@@ -387,7 +391,7 @@ def build(x, kind, config: Config):
     words = _candidate_words(x[:nf], xm, start, end, pos_f, L, config.grid, config.list_radius**2)
     t, count = _select(words, K)
     r = jnp.minimum(t // L, R - 1)
-    merged_pos = take(start.reshape(-1), ar_f[:, None] * R + r) + t % L
+    merged_pos = jnp.take_along_axis(start, r, axis=1, mode="promise_in_bounds") + t % L
     k = jnp.arange(K, dtype=jnp.int32)[None, :]
     pm = jnp.concatenate([perm, jnp.zeros((L,), jnp.int32)])
     idx = jnp.where(k < count[:, None], take(pm, merged_pos), ar_f[:, None])
