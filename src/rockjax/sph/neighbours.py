@@ -167,8 +167,16 @@ def pairs(x, kind, idx, config: Config, *, rows: Optional[Rows] = None) -> Pairs
     rows = Rows(0, config.n_fluid) if rows is None else rows
     idx = rows.of(idx)
     d, r, r2 = pair_geometry(rows.of(x), x, idx, config.grid)
-    mask = (idx != rows.ids()[:, None]) & (take(kind, idx) != Kind.PAD) & (rows.of(kind)[:, None] != Kind.PAD)
+    # listed neighbours are never padding (``build`` sorts padding past every searched cell), so
+    # the mask needs no gather of the neighbours' kinds
+    mask = (idx != rows.ids()[:, None]) & (rows.of(kind)[:, None] != Kind.PAD)
     return Pairs(d=d, r=r, r2=r2, idx=idx, mask=mask, rows=rows)
+
+
+def neighbour_kind(idx, config: Config):
+    """``Kind`` of listed neighbours ``idx`` (any shape) without a gather: a listed neighbour is
+    never padding, so it is fluid in the fluid segment ``[0, n_fluid)`` and wall after it."""
+    return jnp.where(idx < config.n_fluid, jnp.int32(Kind.FLUID), jnp.int32(Kind.WALL))
 
 
 def block_plan(n_rows: int, tile: int) -> tuple[int, int]:
@@ -443,7 +451,7 @@ def wall_pairs(idx, kind, config: Config):
             count = jnp.sum((take(kind, idx) == Kind.WALL) & (kind[:nf, None] == Kind.FLUID), dtype=jnp.int32)
         status = jnp.where(count > M, Status.WALL_PAIR_OVERFLOW, 0).astype(jnp.int32)
         return jnp.zeros((M,), jnp.int32), jnp.zeros((M,), jnp.int32), count, status
-    hit = (take(kind, idx) == Kind.WALL) & (kind[:nf, None] == Kind.FLUID)
+    hit = (idx >= nf) & (kind[:nf, None] == Kind.FLUID)  # listed wall neighbours (never padding)
     kp = -(-K // 32) * 32
     words = _pack_bits(jnp.pad(hit, ((0, 0), (0, kp - K))))  # [nf, W]
     pc = jax.lax.population_count(words).astype(jnp.int32)

@@ -25,7 +25,7 @@ import jax.numpy as jnp
 from ..types import Config, DensityDiffusion, Kind, NeighbourList, Params, Particles, Viscosity, WallModel
 from .eos import tait_density, tait_pressure
 from .kernels import kernel_pair
-from .neighbours import Pairs, Rows, pairs, scan_rows, take, transpose_sum, wrap_positions
+from .neighbours import Pairs, Rows, neighbour_kind, pairs, scan_rows, take, transpose_sum, wrap_positions
 from .walls import adami_finish, adami_sums, adami_terms, wall_pair_geometry
 
 __all__ = ["PairTerms", "pair_terms", "density_rate", "acceleration", "pressure", "advance", "prime",
@@ -49,7 +49,7 @@ def pair_terms(pr: Pairs, kind, params: Params, config: Config) -> PairTerms:
     """``PairTerms`` for pairs ``pr`` and particle kinds [N]."""
     _, f_fn = kernel_pair(config.kernel)
     F = jnp.where(pr.mask, f_fn(pr.r, params.fluid.h), 0.0)
-    return PairTerms(pr=pr, F=F, kind_j=take(kind, pr.idx))
+    return PairTerms(pr=pr, F=F, kind_j=neighbour_kind(pr.idx, config))
 
 
 def hydrostatic_density_difference(g_dx, params: Params, config: Config):
