@@ -185,6 +185,75 @@ def wall_pair_capacity(fluid_x: np.ndarray, wall_x: np.ndarray, radius: float) -
     return int(math.ceil((2 * count + len(fluid_x)) / 8.0) * 8)
 
 
+def _ceil8(v: float) -> int:
+    return int(math.ceil(v / 8.0) * 8)
+
+
+def initial_list_sizes(fluid_x: np.ndarray, x: np.ndarray, grid: GridSpec, radius: float) -> tuple[int, int]:
+    """``(neighbours, cell run)`` the first list build needs for these positions (host, numpy).
+
+    ``neighbours``: the most particles (fluid and wall) within ``radius`` [m] of a fluid particle;
+    ``cell run``: the largest candidate range a fluid particle searches (``sph.neighbours``: a run
+    of 5 search sub-cells along x, or one sub-cell), in ``Config.cell_capacity`` units. The lattice
+    estimate of ``_capacities`` misses walls whose layers are offset from the water's lattice
+    (a 0.2 m tank at skin 0.3 dx needed 154 where it gave 96), so scenes take the larger of the two.
+    """
+    from scipy.spatial import cKDTree
+
+    from ..sph.neighbours import _run_mode, range_ratio, search_grid
+
+    if len(fluid_x) == 0:
+        return 0, 0
+    periodic = np.asarray(grid.periodic)
+    lengths = np.asarray(grid.lengths, float)
+    origin = np.asarray(grid.origin, float)
+    x_q = np.where(periodic, origin + np.mod(np.asarray(x, float) - origin, lengths), np.asarray(x, float))
+    fluid_q = x_q[: len(fluid_x)]
+    images = x_q
+    for ax in np.nonzero(periodic)[0]:  # periodic images, one period either side
+        shift = np.zeros(3)
+        shift[ax] = lengths[ax]
+        images = np.concatenate([images, images + shift, images - shift])
+    counts = cKDTree(images).query_ball_point(fluid_q, radius, return_length=True)
+    k_need = int(np.max(counts)) - 1  # not the particle itself
+    sg = search_grid(grid)
+    shape = np.asarray(sg.shape)
+    c = np.floor((x_q - origin) / np.asarray(sg.cell_size)).astype(int)  # as sph.neighbours.cell_coords
+    c = np.where(periodic, np.mod(c, shape), np.clip(c, 0, shape - 1))
+    hist = np.zeros(tuple(shape), np.int64)
+    np.add.at(hist, (c[:, 0], c[:, 1], c[:, 2]), 1)
+    run_mode = _run_mode(sg)
+    if run_mode:  # windows [cx - 2, cx + 2] along x (clipped: x is not periodic in run mode)
+        cs = np.concatenate([np.zeros((1,) + hist.shape[1:], np.int64), np.cumsum(hist, axis=0)])
+        lo = np.clip(np.arange(shape[0]) - 2, 0, None)
+        hi = np.clip(np.arange(shape[0]) + 3, None, shape[0])
+        win = cs[hi] - cs[lo]
+    else:
+        win = hist
+    cf = np.unique(c[: len(fluid_x)], axis=0)
+    best = 0
+    for dy in range(-2, 3):
+        for dz in range(-2, 3):
+            yz = cf[:, 1:] + [dy, dz]
+            ok = np.ones(len(cf), bool)
+            for a, ax in ((0, 1), (1, 2)):
+                if periodic[ax]:
+                    yz[:, a] = np.mod(yz[:, a], shape[ax])
+                else:
+                    ok &= (yz[:, a] >= 0) & (yz[:, a] < shape[ax])
+            if ok.any():
+                if run_mode:
+                    best = max(best, int(win[cf[ok, 0], yz[ok, 0], yz[ok, 1]].max()))
+                else:
+                    for dx_ in range(-2, 3):
+                        xs = cf[ok, 0] + dx_
+                        xs = np.mod(xs, shape[0]) if periodic[0] else xs
+                        inb = (xs >= 0) & (xs < shape[0])
+                        if inb.any():
+                            best = max(best, int(win[xs[inb], yz[ok][inb, 0], yz[ok][inb, 1]].max()))
+    return k_need, int(math.ceil(best / range_ratio(sg)))
+
+
 def _capacities(h_factor: float, list_radius_dx: float, run_length: int) -> tuple[int, int]:
     """Neighbour, wall-row and cell-run capacities for a regular lattice (the driver regrows)."""
     n_sphere = 4.0 / 3.0 * math.pi * list_radius_dx**3
@@ -215,6 +284,9 @@ def particle_layout(*, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domai
         rho = np.asarray(tait_density(1000.0 * GRAVITY * depth, 1000.0, c0, 7.0))
     run_length = 1 if (periodic[0] or grid.shape[0] < 3) else 3
     k, cell_cap = _capacities(h_factor, (cutoff + skin) / dx, run_length)
+    k_now, cell_now = initial_list_sizes(fluid_x, x, grid, cutoff + skin)
+    k = max(k, _ceil8(1.05 * k_now))
+    cell_cap = max(cell_cap, _ceil8(1.05 * cell_now))
     return dict(grid=grid, cutoff=cutoff, skin=skin, neighbour_capacity=k, cell_capacity=cell_cap, x=x, kind=kind,
                 vol=vol, rho=rho, wall_pair_capacity=wall_pair_capacity(fluid_x, wall_x, cutoff + skin))
 

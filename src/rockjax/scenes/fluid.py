@@ -36,7 +36,7 @@ def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width:
               viscosity: Viscosity = Viscosity.ARTIFICIAL, wall_model: WallModel = WallModel.ADAMI,
               density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS,
               h_factor: float = 1.3, c0: float | None = None, alpha: float | None = None, nu: float | None = None,
-              delta: float = 0.1, wall_viscosity: float = 1.0, skin_factor: float = 0.6, rebuild_every: int = 8,
+              delta: float = 0.1, wall_viscosity: float = 1.0, skin_factor: float = 0.3, rebuild_every: int = 8,
               cfl: float = 0.25) -> Scene:
     """A water column collapsing in a tank (3D; with ``periodic_y`` a 2D slab).
 
@@ -52,7 +52,11 @@ def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width:
         alpha / nu: artificial viscosity [-] / kinematic viscosity [m^2/s]; defaults depend on
             the scheme (WCSPH 0.02 / 1e-6; seed 0 / 1e-3, as its Eq 18 is its only dissipation).
         wall_viscosity: factor on the viscous term towards wall particles (0 = free-slip walls).
-        h_factor: smoothing length / dx. skin_factor: Verlet skin / dx.
+        h_factor: smoothing length / dx. skin_factor: Verlet skin / dx (default 0.3: with the
+            driver's displacement-triggered rebuilds the thinner lists, K 120 instead of 160 at
+            0.6, outweigh the more frequent rebuilds, ``experiments/bench_skin.py``; a rollout
+            without the trigger, e.g. a vmapped ensemble, needs a skin covering ``rebuild_every``
+            steps of motion).
     """
     dx = _positive("dam_break: dx", dx)
     for name, val in (("column_length", column_length), ("column_width", column_width),
@@ -94,7 +98,7 @@ def hydrostatic_tank(*, dx: float = 0.02, length: float = 0.2, width: float = 0.
                      wall_model: WallModel = WallModel.ADAMI,
                      density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS, h_factor: float = 1.3,
                      c0: float | None = None, alpha: float | None = None, nu: float | None = None,
-                     delta: float = 0.1, wall_viscosity: float = 1.0, skin_factor: float = 0.6, rebuild_every: int = 8,
+                     delta: float = 0.1, wall_viscosity: float = 1.0, skin_factor: float = 0.3, rebuild_every: int = 8,
                      cfl: float = 0.25) -> Scene:
     """Still water of ``depth`` [m] in a closed-bottom tank ``length x width`` [m] (open top).
 

@@ -77,7 +77,8 @@ Form (b): a general scene
     dx = 0.02                          # particle spacing, m
     scheme = "wcsph"                   # or "seed"; c0 [m/s] (default 10 x the largest expected
     # speed), h_factor, alpha, nu [m^2/s], delta, wall_viscosity (0 = free-slip walls and
-    # blocks), skin_factor, rebuild_every, cfl; kernel,
+    # blocks), skin_factor (Verlet skin / dx; default 0.3, 0.6 with moving blocks),
+    # rebuild_every, cfl; kernel,
     # viscosity, wall_model, density_diffusion (water-only scenes; with blocks the defaults hold)
 
     [coupling]                         # water <-> moving blocks
@@ -319,7 +320,7 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
             "h_factor": _num(default=1.3, lo=0.5, hi=3.0), "alpha": _num(**_NONNEG),
             "nu": _num(unit="m^2/s", **_NONNEG), "delta": _num(default=0.1, **_NONNEG),
             "wall_viscosity": _num(default=1.0, **_NONNEG),
-            "skin_factor": _num(default=0.6, **_NONNEG), "rebuild_every": _num("int", 8, lo=1),
+            "skin_factor": _num(**_NONNEG), "rebuild_every": _num("int", 8, lo=1),
             "cfl": _num(default=0.25, lo=0.0, lo_open=True, hi=1.0),
             "kernel": _choice(_enum_values(KernelKind), "wendland_c2"),
             "viscosity": _choice(_enum_values(Viscosity), "artificial"),
@@ -924,7 +925,9 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
     if walls_only:
         meta["fixed_walls_only"] = walls_only
     common = dict(h_factor=sph["h_factor"], alpha=alpha, nu=nu, delta=sph["delta"],
-                  wall_viscosity=sph["wall_viscosity"], skin_factor=sph["skin_factor"],
+                  wall_viscosity=sph["wall_viscosity"],
+                  # the builders' defaults: 0.3 dx for water only, 0.6 dx with moving blocks
+                  skin_factor=sph["skin_factor"] if sph["skin_factor"] is not None else (0.6 if moving else 0.3),
                   rebuild_every=sph["rebuild_every"], cfl=sph["cfl"])
     if not moving:
         return fluid_scene(name=name, dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,

@@ -244,6 +244,11 @@ def _offsets(sg: GridSpec) -> np.ndarray:
     return np.array(list(itertools.product(*per_axis)), dtype=np.int32)
 
 
+def range_ratio(sg: GridSpec) -> float:
+    """Volume of one search range of sub-grid ``sg`` over a ``Config.cell_capacity`` run of cells."""
+    return (5.0 / 24.0) if _run_mode(sg) else 1.0 / 8.0
+
+
 def range_capacity(config: Config) -> tuple[int, float]:
     """Slots per candidate range and its volume ratio to a ``Config.cell_capacity`` run.
 
@@ -251,7 +256,7 @@ def range_capacity(config: Config) -> tuple[int, float]:
     5 (run mode) or 1 sub-cell of 1/8 the volume. Returns ``(L, ratio)`` with
     ``L = ceil8(ratio * cell_capacity)``.
     """
-    ratio = (5.0 / 24.0) if _run_mode(search_grid(config.grid)) else 1.0 / 8.0
+    ratio = range_ratio(search_grid(config.grid))
     return max(8, int(math.ceil(ratio * config.cell_capacity / 8.0) * 8)), ratio
 
 
