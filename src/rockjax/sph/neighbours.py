@@ -262,19 +262,28 @@ def range_capacity(config: Config) -> tuple[int, float]:
 
 def _ranges(c_rows, starts, sg: GridSpec):
     """Candidate ranges [R_rows, n_off] (start, end) in the merged order for rows in sub-cells ``c_rows``."""
-    shape = np.asarray(sg.shape, np.int32)
-    periodic = np.asarray(sg.periodic)
-    offs = jnp.asarray(_offsets(sg))
-    cn = c_rows[:, None, :] + offs[None, :, :]
-    valid = jnp.all(jnp.where(periodic, True, (cn >= 0) & (cn < shape)), axis=-1)
-    cn = jnp.where(periodic, jnp.mod(cn, shape), jnp.clip(cn, 0, shape - 1))
+    offs = _offsets(sg)
+    comp, valid = [], None
+    for a in range(3):  # per axis [R_rows, n_off]: no [R_rows, n_off, 3] array (a slow scatter on XLA:CPU)
+        n = sg.shape[a]
+        ca = c_rows[:, a, None] + jnp.asarray(offs[:, a])[None, :]
+        if sg.periodic[a]:
+            ca = jnp.mod(ca, n)
+        else:
+            ok = (ca >= 0) & (ca < n)
+            valid = ok if valid is None else valid & ok
+            ca = jnp.clip(ca, 0, n - 1)
+        comp.append(ca)
     if _run_mode(sg):
-        lo = cn.at[..., 0].set(jnp.maximum(c_rows[:, None, 0] - 2, 0))
-        hi = cn.at[..., 0].set(jnp.minimum(c_rows[:, None, 0] + 2, shape[0] - 1))
+        lo_x = jnp.maximum(c_rows[:, 0, None] - 2, 0)
+        hi_x = jnp.minimum(c_rows[:, 0, None] + 2, sg.shape[0] - 1)
     else:
-        lo = hi = cn
-    start = starts[_flat(lo, sg.shape)]
-    end = jnp.where(valid, starts[_flat(hi, sg.shape) + 1], start)
+        lo_x = hi_x = comp[0]
+    yz = sg.shape[0] * (comp[1] + sg.shape[1] * comp[2])
+    start = take(starts, lo_x + yz)
+    end = take(starts, hi_x + yz + 1)
+    if valid is not None:
+        end = jnp.where(valid, end, start)
     return start, end
 
 
@@ -347,6 +356,18 @@ def _candidate_words(x_rows, xm, start, end, pos_rows, L: int, grid: GridSpec, r
     return words
 
 
+def _materialise(tree, pred):
+    """``tree`` itself, computed into buffers before any consumer runs (``pred`` must be True).
+
+    A fusion boundary for XLA:CPU, which otherwise fuses a cheap-looking producer into each of its
+    consumers and, inside a gather, recomputes it for every index component. The usual tool,
+    ``lax.optimization_barrier``, is removed by XLA:CPU before fusion; a conditional is not. ``pred``
+    is a traced boolean that is always True (so the branch cannot be folded away); under ``vmap``
+    the conditional becomes a select of both branches, which is still correct.
+    """
+    return jax.lax.cond(pred, lambda t: t, lambda t: jax.tree_util.tree_map(jnp.zeros_like, t), tree)
+
+
 def _select(words, capacity: int):
     """Compact each row's hits: ``(t [R, capacity] column of the k-th hit, count [R])``.
 
@@ -362,14 +383,14 @@ def _select(words, capacity: int):
     # word holding the k-th hit = number of words whose inclusive count is <= k
     marks = jnp.zeros((n, capacity + 1), jnp.float32).at[rows, jnp.minimum(incl, capacity)].add(1.0)
     wk = jnp.minimum(_prefix_sum(marks[:, :capacity]).astype(jnp.int32), w_count - 1)
-    # the gathers' indices and operand materialised first: fused into the gathers, XLA:CPU
-    # recomputed them per gathered element (build 51 -> 45 ms at 21k rows, 32 words, K = 160;
-    # flat ``take``s instead of ``take_along_axis`` were 6x slower inside the build)
-    wk, excl = jax.lax.optimization_barrier((wk, incl - pc))
+    # the gathers' indices and the selection materialised (``_materialise``): fused into their
+    # consumers, XLA:CPU recomputed them per gathered element (select + assembly 27 -> 13 ms at
+    # 21k rows, 32 words, K = 120)
+    wk, excl = _materialise((wk, incl - pc), count[0] >= 0)
     k = jnp.arange(capacity, dtype=jnp.int32)[None, :]
     word = jnp.take_along_axis(words, wk, axis=1, mode="promise_in_bounds")
     rank = k - jnp.take_along_axis(excl, wk, axis=1, mode="promise_in_bounds")
-    return wk * 32 + _nth_set_bit(word, rank), count
+    return _materialise(wk * 32 + _nth_set_bit(word, rank), count[0] >= 0), count
 
 
 def build(x, kind, config: Config):
