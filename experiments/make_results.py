@@ -207,6 +207,23 @@ def sec_driver(doc: Doc):
                  "date"], rows))
 
 
+def sec_skin(doc: Doc):
+    doc.h("Verlet skin: step time at rest and in the developed collapse (3D dam break)")
+    recs = doc.records("bench_skin.jsonl",
+                       "python experiments/bench_skin.py --nx 14 22 --out experiments/results/bench_skin.jsonl")
+    if recs is None:
+        return
+    doc.p("The driver's schedule (`rollout.scheduled_step`: a rebuild at least every 32 steps and whenever a "
+          "particle would move more than skin / 2), timed from the initial column (`rest`) and from the state at "
+          "`t flow` (`flow`), skins interleaved in one run, best of its rounds. `rebuilds` per chunk of `steps`; "
+          "`vs first` = speed relative to the first skin of the same size and state.")
+    rows = [[r.get("n_fluid"), r.get("skin_dx"), r.get("K"), r.get("cell_capacity"), r.get("state"), r.get("t_flow_s"),
+             r.get("steps"), r.get("rebuilds"), r.get("ms_step"), r.get("fluid_particle_steps_per_s"), r.get("vs_first"),
+             r.get("git"), r.get("date")] for r in recs]
+    doc.p(table(["n_fluid", "skin/dx", "K", "cell cap", "state", "t flow s", "steps", "rebuilds", "ms/step",
+                 "fluid p-steps/s", "vs first", "git", "date"], rows))
+
+
 def _last_clean_peers(results: str) -> list[dict]:
     recs = []
     for p in sorted(glob.glob(os.path.join(results, PEERS_FILE_GLOB))):
@@ -479,7 +496,7 @@ def sec_stress(doc: Doc):
         doc.p(table(["test", "outcome", "time s", "message"], rows))
 
 
-SECTIONS = [sec_sph, sec_driver, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_calibration, sec_piston,
+SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_calibration, sec_piston,
             sec_wedge, sec_stress]
 
 
