@@ -11,8 +11,9 @@ is never traced):
 * boundary particles (``Coupling.BOUNDARY_PARTICLES``): particles carried by blocks are placed at
   the new block poses before the fluid sees them;
 * fluid (``config.n_fluid > 0``): ``Scheme.WCSPH`` (``sph.wcsph``) or ``Scheme.SEED`` (``sph.seed``);
-* coupling (``Coupling.PENALTY``): seed Eq 22 on the fluid at the end of the step, the reaction
-  stored for the blocks' next step (``coupling.penalty``);
+* coupling: ``Coupling.PENALTY``, seed Eq 22 on the fluid at the end of the step, the reaction
+  stored for the blocks' next step (``coupling.penalty``); ``Coupling.BOUNDARY_PARTICLES``, the
+  loads of the block particles summed in the WCSPH momentum pass (``coupling.boundary_particles``);
 * checks: non-finite values, particles off the grid, stale neighbour list, time step beyond the
   stability limit; each sets a ``Status`` bit for the host driver.
 
@@ -128,14 +129,32 @@ def _fluid_load(state: State, params: Params, config: Config, *, kick: bool) -> 
     return state
 
 
+def _load_bodies(config: Config) -> tuple[int, ...]:
+    """Blocks whose boundary-particle loads a WCSPH step sums in its momentum pass (else ())."""
+    if config.coupling != Coupling.BOUNDARY_PARTICLES or config.scheme != Scheme.WCSPH:
+        return ()
+    from .coupling.penalty import coupled_blocks
+
+    return coupled_blocks(config)
+
+
 def advance(state: State, params: Params, config: Config) -> State:
     """One time step with the current neighbour list (no rebuild)."""
     if config.has_blocks:
         state = _advance_blocks(state, params, config)
     state = _place_block_particles(state, config)
     if config.n_fluid > 0:
-        P = _fluid(config).advance(state.particles, state.nbrs, params, config)
-        state = _fluid_load(state.replace(particles=P), params, config, kick=True)
+        bodies = _load_bodies(config)
+        if bodies:
+            # the loads come out of the momentum pass (the reaction of exactly what the fluid gets)
+            from .coupling import boundary_particles
+
+            P, acc_bodies = wcsph.advance(state.particles, state.nbrs, params, config, bodies=bodies)
+            load = boundary_particles.from_accelerations(P, acc_bodies, bodies, state.blocks, params, config)
+            state = state.replace(particles=P, coupling=load)
+        else:
+            P = _fluid(config).advance(state.particles, state.nbrs, params, config)
+            state = _fluid_load(state.replace(particles=P), params, config, kick=True)
     state = state.replace(step=state.step + 1)
     return state.replace(status=state.status | check(state, params, config))
 

@@ -23,7 +23,7 @@ from ..types import Config, CouplingState, Kind, NeighbourList, Params, Particle
 from ..blocks.rotation import quat_matrix
 from .penalty import coupled_blocks
 
-__all__ = ["place", "load"]
+__all__ = ["place", "load", "from_accelerations"]
 
 
 def place(P: Particles, blocks, config: Config) -> Particles:
@@ -38,19 +38,36 @@ def place(P: Particles, blocks, config: Config) -> Particles:
 
 
 def load(P: Particles, nbrs: NeighbourList, blocks, params: Params, config: Config) -> CouplingState:
-    """Fluid force [B, 3] N and torque [B, 3] N m on each block, for the current particles."""
+    """Fluid force [B, 3] N and torque [B, 3] N m on each block, for the current particles.
+
+    A momentum sum per coupled block (used at priming, and by the seed scheme); a WCSPH step gets
+    the same sums from its own momentum pass (``wcsph.advance(..., bodies=...)``, ``from_accelerations``).
+    """
     nf = config.n_fluid
     pr = pairs(P.x, P.kind, nbrs.idx, config)
     body_j = P.body[pr.idx]
+    bodies = coupled_blocks(config)
+    acc = []
+    for b in bodies:
+        only_b = pr._replace(mask=pr.mask & (body_j == b))
+        acc.append(wcsph.acceleration(only_b, P.v, P.rho, P.p, P.vol, P.kind, params, config)[:nf] - params.gravity)
+    return from_accelerations(P, jnp.stack(acc, axis=1), bodies, blocks, params, config)
+
+
+def from_accelerations(P: Particles, acc_bodies, bodies: tuple[int, ...], blocks, params: Params,
+                       config: Config) -> CouplingState:
+    """Loads on the blocks from ``acc_bodies`` [n_fluid, len(bodies), 3] m/s^2, the acceleration of
+    each fluid particle due to each block's particles: ``F_b = -sum_i m_i a_i^(b)``,
+    ``T_b = -sum_i (x_i - X_b) x m_i a_i^(b)``.
+    """
+    nf = config.n_fluid
     m = params.fluid.rho0 * P.vol[:nf]
     fluid = P.kind[:nf] == Kind.FLUID
     n_blocks = blocks.x.shape[0]
     force = jnp.zeros((n_blocks, 3), P.x.dtype)
     torque = jnp.zeros((n_blocks, 3), P.x.dtype)
-    for b in coupled_blocks(config):
-        only_b = pr._replace(mask=pr.mask & (body_j == b))
-        a = wcsph.acceleration(only_b, P.v, P.rho, P.p, P.vol, P.kind, params, config)[:nf] - params.gravity
-        f = jnp.where(fluid[:, None], m[:, None] * a, 0.0)  # force of block b's particles on the fluid
+    for k, b in enumerate(bodies):
+        f = jnp.where(fluid[:, None], m[:, None] * acc_bodies[:, k], 0.0)  # force of block b's particles on the fluid
         r = P.x[:nf] - blocks.x[b]
         force = force.at[b].set(-jnp.sum(f, 0))
         torque = torque.at[b].set(-jnp.sum(jnp.cross(r, f), 0))

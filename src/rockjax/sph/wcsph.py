@@ -150,8 +150,15 @@ def density_rate(pr: Pairs, v, rho, vol, kind, params: Params, config: Config, *
     return jnp.concatenate([drho_f, drho_w])
 
 
-def _acceleration_rows(pr: Pairs, t: PairTerms, v, rho, p, vol, kind, params: Params, config: Config):
-    """Momentum sums of a block of rows: acceleration [R, 3] m/s^2 (gravity included; zero off the fluid)."""
+def _acceleration_rows(pr: Pairs, t: PairTerms, v, rho, p, vol, kind, params: Params, config: Config, *,
+                       body=None, bodies: tuple[int, ...] = ()):
+    """Momentum sums of a block of rows: acceleration [R, 3] m/s^2 (gravity included; zero off the fluid).
+
+    With ``bodies`` (block indices) and ``body`` [N] (the block carrying each particle, -1 for
+    none), also the part of each row's acceleration due to the particles of each of those blocks:
+    returns ``(acc [R, 3], acc_bodies [R, len(bodies), 3])`` -- the same pair terms, so the loads
+    on the blocks are the exact reaction of what the fluid receives (one pass, no extra sums).
+    """
     f = params.fluid
     h = f.h
     rows = pr.rows
@@ -170,13 +177,20 @@ def _acceleration_rows(pr: Pairs, t: PairTerms, v, rho, p, vol, kind, params: Pa
         mu = h * vr / (r2 + eta2)
         pi_ij = jnp.where(vr < 0, (-2.0 * f.alpha * f.c0) * visc * mu / (rho_i + rho_j), 0.0)
         cf = (coef - m_j * pi_ij) * F
-        acc = [jnp.sum(cf * d[a], axis=1) for a in range(3)]
+        terms = [cf * d[a] for a in range(3)]
     else:
         cf = coef * F
         lam = m_j * 4.0 * f.nu * visc * (F * r2) / ((rho_i + rho_j) * (r2 + eta2))
-        acc = [jnp.sum(cf * d[a] + lam * vij[a], axis=1) for a in range(3)]
+        terms = [cf * d[a] + lam * vij[a] for a in range(3)]
+    acc = [jnp.sum(term, axis=1) for term in terms]
     fluid = rows.of(kind) == Kind.FLUID
-    return jnp.where(fluid[:, None], jnp.stack(acc, axis=1) + params.gravity, 0.0)
+    acc = jnp.where(fluid[:, None], jnp.stack(acc, axis=1) + params.gravity, 0.0)
+    if not bodies:
+        return acc
+    body_j = take(body, idx)
+    per_body = [jnp.stack([jnp.sum(jnp.where(body_j == b, term, 0.0), axis=1) for term in terms], axis=1)
+                for b in bodies]
+    return acc, jnp.where(fluid[:, None, None], jnp.stack(per_body, axis=1), 0.0)
 
 
 def acceleration(pr: Pairs, v, rho, p, vol, kind, params: Params, config: Config, *,
@@ -197,8 +211,14 @@ def prime(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -> 
     return P.replace(a=a, drho_dt=drho_dt, p=p, rho=rho)
 
 
-def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -> Particles:
+def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *,
+            bodies: tuple[int, ...] = ()):
     """One step of length ``config.dt``: velocity Verlet for (x, v), density staggered like x.
+
+    Returns the new ``Particles``; with ``bodies`` (indices of blocks carrying boundary particles,
+    ``P.body``) returns ``(Particles, acc_bodies [n_fluid, len(bodies), 3] m/s^2)``, the part of each
+    fluid particle's new acceleration due to each block's particles (``coupling.boundary_particles``
+    turns it into the loads), summed in the momentum pass itself.
 
     ``v+ = v + dt/2 a``; ``x' = x + dt v+``; ``rho' = rho + dt Drho(x', v+)``;
     ``a' = a(x', v+, rho')``; ``v' = v+ + dt/2 a'``. Density and position are advanced with the
@@ -254,9 +274,12 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -
     def momentum_pass(rows: Rows, own, carry):
         pr = pairs(x_new, kind, nbrs.idx, config, rows=rows)
         t = pair_terms(pr, kind, params, config)
-        return carry, _acceleration_rows(pr, t, v_half, rho_new, p, P.vol, kind, params, config)
+        return carry, _acceleration_rows(pr, t, v_half, rho_new, p, P.vol, kind, params, config, body=P.body,
+                                         bodies=bodies)
 
-    _, a_f = scan_rows(momentum_pass, nf, config.effective_row_tile, None)
+    _, out = scan_rows(momentum_pass, nf, config.effective_row_tile, None)
+    a_f = out[0] if bodies else out
     a = jnp.concatenate([a_f, jnp.zeros((nw, 3), a_f.dtype)])
     v_new = jnp.where(fluid[:, None], v_half + 0.5 * dt * a, v_half)
-    return P.replace(x=x_new, v=v_new, a=a, rho=rho_new, drho_dt=drho_dt, p=p)
+    P = P.replace(x=x_new, v=v_new, a=a, rho=rho_new, drho_dt=drho_dt, p=p)
+    return (P, out[1]) if bodies else P
