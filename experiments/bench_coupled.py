@@ -3,7 +3,8 @@
 For each resolution the same scene is timed three ways, with the same state: the full coupled
 step; the fluid alone (blocks and coupling removed from the Config, so they are not traced);
 the blocks alone (no particles). coupling = full - fluid - blocks. Each timing is the best of
-``--reps`` runs of one jitted chunk of ``rebuild_every`` steps (list rebuild included).
+``--reps`` runs of one jitted chunk of ``rebuild_every`` steps (list rebuild included), the three
+variants interleaved round by round.
 JSON lines out; compare the shares within one run (the machine is shared and noisy).
 
     python experiments/bench_coupled.py --dx 0.04 0.03 0.02 --coupling penalty
@@ -19,14 +20,17 @@ import time
 import jax
 
 
-def _timed(fn, state, params, reps):
-    out = fn(state, params)
-    jax.block_until_ready(out)
-    best = float("inf")
-    for _ in range(reps):
-        t0 = time.perf_counter()
+def _timed(cases, reps):
+    """Best wall time of each ``(fn, state, params)`` in ``cases``, the cases interleaved round by
+    round (so a slow spell of the shared machine hits all of them alike); compile excluded."""
+    for fn, state, params in cases:
         jax.block_until_ready(fn(state, params))
-        best = min(best, time.perf_counter() - t0)
+    best = [float("inf")] * len(cases)
+    for _ in range(reps):
+        for i, (fn, state, params) in enumerate(cases):
+            t0 = time.perf_counter()
+            jax.block_until_ready(fn(state, params))
+            best[i] = min(best[i], time.perf_counter() - t0)
     return best
 
 
@@ -46,14 +50,15 @@ def bench(dx: float, coupling: str, reps: int) -> dict:
 
     t0 = time.perf_counter()
     full = chunk(c)
-    t_full = _timed(full, state, p, reps)
+    jax.block_until_ready(full(state, p))
     compile_s = time.perf_counter() - t0
     c_fluid = c.replace(blocks=None, coupling=Coupling.NONE)
     s_fluid = state.replace(blocks=None, coupling=None)
-    t_fluid = _timed(chunk(c_fluid), s_fluid, p.replace(blocks=None, coupling=None), reps)
     c_blocks = Config(n_fluid=0, n_wall=0, dt=c.dt, grid=None, cutoff=0.0, skin=0.0, rebuild_every=k, blocks=c.blocks)
     s_blocks = State(step=state.step, particles=None, nbrs=None, status=state.status, blocks=state.blocks)
-    t_blocks = _timed(chunk(c_blocks), s_blocks, p.replace(fluid=None, coupling=None), reps)
+    t_full, t_fluid, t_blocks = _timed([(full, state, p),
+                                        (chunk(c_fluid), s_fluid, p.replace(blocks=None, coupling=None)),
+                                        (chunk(c_blocks), s_blocks, p.replace(fluid=None, coupling=None))], reps)
     per = lambda t: 1e3 * t / k  # ms per step
     t_coup = max(t_full - t_fluid - t_blocks, 0.0)
     return {"bench": "coupled_step", "dx": dx, "coupling": coupling, "n_fluid": c.n_fluid, "n_wall": c.n_wall,
@@ -68,7 +73,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--dx", type=float, nargs="+", default=[0.04, 0.03, 0.02])
     ap.add_argument("--coupling", default="penalty", choices=["penalty", "boundary_particles"])
-    ap.add_argument("--reps", type=int, default=5)
+    ap.add_argument("--reps", type=int, default=15)
     a = ap.parse_args()
     for dx in a.dx:
         print(json.dumps(bench(dx, a.coupling, a.reps)), flush=True)
