@@ -475,6 +475,31 @@ def sec_wedge(doc: Doc):
                  "max smooth run-up [m]", "wall s", "load"], rows))
 
 
+def sec_energy_creep(doc: Doc):
+    doc.h("WCSPH energy rebound after the impact (stress long-run scene)")
+    recs = doc.records("energy_creep.jsonl",
+                       "python experiments/energy_creep.py --out experiments/results/energy_creep.jsonl")
+    if recs is None:
+        return
+    doc.p("The stress long run's scene (column a x 2a, a = 0.08 m, periodic slab), float64. Energies in m g 2a. "
+          "`rebound` = max_t E(t) - min_{s<=t} E(s) (stress bound 3e-3); `late` = E(t_end) - E(t_end / 2) "
+          "(stress bound 1e-3 over the second half); `lowest z / dx` = the lowest water particle over dx at "
+          "t_end / 2 and t_end (0.5 on the initial lattice).")
+    rows = [[r.get("a_over_dx"), r.get("n_fluid"), r.get("steps"), r.get("t_end"), r.get("lost"), r.get("t_min"),
+             r.get("rebound"), r.get("late"), r.get("kinetic_end"), r.get("lowest_particle_z_over_dx"), r.get("date")]
+            for r in recs if r.get("case") == "resolution"]
+    doc.p(table(["a/dx", "n_fluid", "steps", "t_end s", "lost", "t of min s", "rebound", "late", "kinetic end",
+                 "lowest z / dx", "date"], rows))
+    cont = [r for r in recs if r.get("case") == "continuation"]
+    if cont:
+        doc.p("Continuations (a/dx = 4) from the same state, one term off at a time: energy change over the "
+              "continuation.")
+        rows = [[r.get("variant"), r.get("t_start"), r.get("t_len"), r.get("dE"), r.get("dE_potential"),
+                 r.get("dE_elastic"), r.get("kinetic_max"), r.get("kinetic_end"), r.get("date")] for r in cont]
+        doc.p(table(["variant", "from t s", "for s", "dE", "dE potential", "dE elastic", "kinetic max",
+                     "kinetic end", "date"], rows))
+
+
 def sec_stress(doc: Doc):
     doc.h("Stress suite (`pytest -m stress`)")
     recs = doc.records("stress.jsonl", "python experiments/make_results.py --stress-junit JUNIT.xml (after "
@@ -497,7 +522,7 @@ def sec_stress(doc: Doc):
 
 
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_calibration, sec_piston,
-            sec_wedge, sec_stress]
+            sec_wedge, sec_energy_creep, sec_stress]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:
