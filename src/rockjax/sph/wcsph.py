@@ -177,19 +177,25 @@ def _acceleration_rows(pr: Pairs, t: PairTerms, v, rho, p, vol, kind, params: Pa
         mu = h * vr / (r2 + eta2)
         pi_ij = jnp.where(vr < 0, (-2.0 * f.alpha * f.c0) * visc * mu / (rho_i + rho_j), 0.0)
         cf = (coef - m_j * pi_ij) * F
-        terms = [cf * d[a] for a in range(3)]
+        lam = None
     else:
         cf = coef * F
         lam = m_j * 4.0 * f.nu * visc * (F * r2) / ((rho_i + rho_j) * (r2 + eta2))
-        terms = [cf * d[a] + lam * vij[a] for a in range(3)]
-    acc = [jnp.sum(term, axis=1) for term in terms]
+
+    def sums(cf, lam):
+        if lam is None:
+            return jnp.stack([jnp.sum(cf * d[a], axis=1) for a in range(3)], axis=1)
+        return jnp.stack([jnp.sum(cf * d[a] + lam * vij[a], axis=1) for a in range(3)], axis=1)
+
     fluid = rows.of(kind) == Kind.FLUID
-    acc = jnp.where(fluid[:, None], jnp.stack(acc, axis=1) + params.gravity, 0.0)
+    acc = jnp.where(fluid[:, None], sums(cf, lam) + params.gravity, 0.0)
     if not bodies:
         return acc
     body_j = take(body, idx)
-    per_body = [jnp.stack([jnp.sum(jnp.where(body_j == b, term, 0.0), axis=1) for term in terms], axis=1)
-                for b in bodies]
+    per_body = []
+    for b in bodies:
+        on = body_j == b
+        per_body.append(sums(jnp.where(on, cf, 0.0), None if lam is None else jnp.where(on, lam, 0.0)))
     return acc, jnp.where(fluid[:, None, None], jnp.stack(per_body, axis=1), 0.0)
 
 
