@@ -137,6 +137,7 @@ def check_params(config: Config, params: Params) -> None:
             f"Params.fluid.h = {float(np.max(np.asarray(f.h))):.4g} m gives a kernel support of {support:.4g} m, "
             f"beyond Config.cutoff = {config.cutoff:.4g} m; rebuild the scene with this h (or a larger cutoff)."
         )
+    _warn_undamped(config, params)
     limit = stable_dt(params, scheme=config.scheme, viscosity=config.viscosity, cfl=2 * config.cfl)
     if config.dt > limit * (1 + 1e-6):
         raise ValueError(
@@ -144,6 +145,27 @@ def check_params(config: Config, params: Params) -> None:
             f"(h = {float(f.h):.4g} m, c0 = {float(f.c0):.4g} m/s, nu = {float(f.nu):.3g} m^2/s); "
             "use a smaller dt (Config.replace(dt=...)) or rebuild the scene."
         )
+
+
+def _warn_undamped(config: Config, params: Params) -> None:
+    """Warn (``RuntimeWarning``) when a WCSPH run has neither artificial viscosity nor density diffusion.
+
+    Measured (``experiments/energy_creep.py``): from a settled dam-break state, alpha = delta = 0
+    gained 0.2 m g 2a of energy in 6 s -- nothing damps the pressure noise and the Adami walls do
+    not conserve energy. Allowed (a user may want to study it), never silent.
+    """
+    import warnings
+
+    if config.scheme != Scheme.WCSPH or config.viscosity != Viscosity.ARTIFICIAL:
+        return
+    f = params.fluid
+    no_visc = not np.any(np.asarray(f.alpha) > 0)
+    no_diff = config.density_diffusion == DensityDiffusion.NONE or not np.any(np.asarray(f.delta) > 0)
+    if no_visc and no_diff:
+        warnings.warn("WCSPH with Params.fluid.alpha = 0 and no density diffusion (delta = 0 or "
+                      "DensityDiffusion.NONE) leaves the pressure noise undamped (measured unstable after a dam-break impact, "
+                      "experiments/energy_creep.py). Set alpha > 0 "
+                      "(e.g. 0.02) or delta > 0 (e.g. 0.1).", RuntimeWarning, stacklevel=3)
 
 
 def make_state(*, config: Config, x: np.ndarray, kind: np.ndarray, vol: np.ndarray, rho: np.ndarray,
