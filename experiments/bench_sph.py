@@ -52,7 +52,8 @@ def _cpu() -> float:
 
 
 def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: float | None,
-             rebuild_every: int | None, warm_time: float = 0.0, trigger: bool = True, tag: str = "") -> dict:
+             rebuild_every: int | None, warm_time: float = 0.0, trigger: bool = True, tag: str = "",
+             diffusion: str | None = None) -> dict:
     import jax
     import numpy as np
 
@@ -67,6 +68,8 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
         kw["skin_factor"] = skin_factor
     if rebuild_every is not None:
         kw["rebuild_every"] = rebuild_every
+    if diffusion is not None:
+        kw["density_diffusion"] = rj.DensityDiffusion(diffusion)
     t0 = time.perf_counter()
     scene = rj.scenes.dam_break(dx=0.5 / nx, scheme=rj.Scheme(scheme), **kw)
     setup_s = time.perf_counter() - t0
@@ -135,7 +138,7 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
     ms_step = 1e3 * best(advance_c, state, params)
     nf, nw = counts["fluid"], counts["wall"]
     return {
-        "bench": "sph_dam_break_3d", "tag": tag, "size": size, "scheme": scheme, "n_fluid": nf, "n_wall": nw,
+        "bench": "sph_dam_break_3d", "tag": tag, "size": size, "scheme": scheme, "diffusion": config.density_diffusion.value, "n_fluid": nf, "n_wall": nw,
         "dx": 0.5 / nx, "dtype": str(np.asarray(state.particles.x).dtype),
         "K": config.neighbour_capacity, "cell_capacity": config.cell_capacity,
         "skin_dx": round(config.skin / (0.5 / nx), 3), "rebuild_every": config.rebuild_every, "regrows": regrows,
@@ -216,13 +219,16 @@ def main(argv=None):
     ap.add_argument("--warm-time", type=float, default=0.0, help="simulated seconds to run before timing")
     ap.add_argument("--no-trigger", action="store_true", help="fixed rebuild schedule (no displacement trigger)")
     ap.add_argument("--tag", default="", help="label stored in each record")
+    ap.add_argument("--diffusion", default=None, choices=["none", "molteni", "fourtakas", "antuono"],
+                    help="WCSPH density diffusion (scene default if omitted)")
     ap.add_argument("--ab", nargs="+", metavar="SKIN:K:TRIGGER",
                     help="interleaved in-process A/B of these settings (first size only), e.g. 0.6:8:0 0.3:32:1")
     ap.add_argument("--ab-steps", type=int, default=32)
     ap.add_argument("--case", nargs=2, metavar=("SIZE", "SCHEME"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     opts = dict(blocks=args.blocks, reps=args.reps, skin_factor=args.skin_factor, rebuild_every=args.rebuild_every,
-                warm_time=args.warm_time, trigger=not args.no_trigger, tag=args.tag)
+                warm_time=args.warm_time, trigger=not args.no_trigger, tag=args.tag,
+                diffusion=args.diffusion)
     if args.ab:
         print(json.dumps(ab_case(args.sizes[0], args.ab, steps=args.ab_steps, reps=args.reps,
                                  warm_time=args.warm_time, tag=args.tag)), flush=True)
@@ -236,6 +242,8 @@ def main(argv=None):
                    "--reps", str(args.reps), "--warm-time", str(args.warm_time), "--tag", args.tag]
             if args.no_trigger:
                 cmd += ["--no-trigger"]
+            if args.diffusion is not None:
+                cmd += ["--diffusion", args.diffusion]
             if args.skin_factor is not None:
                 cmd += ["--skin-factor", str(args.skin_factor)]
             if args.rebuild_every is not None:

@@ -81,6 +81,9 @@ class DensityDiffusion(enum.Enum):
     NONE = "none"
     MOLTENI = "molteni"  #: Molteni & Colagrossi (2009)
     FOURTAKAS = "fourtakas"  #: Fourtakas et al. (2019): Molteni minus the hydrostatic part
+    #: Antuono et al. (2010) consistent delta-SPH: Molteni minus the linear part of the density
+    #: difference, from renormalised density gradients (one extra neighbour pass per step)
+    ANTUONO = "antuono"
 
 
 class Coupling(enum.Enum):

@@ -2,7 +2,9 @@
 
 * continuity equation ``drho_i/dt = rho_i sum_j V_j (v_i - v_j) . grad W_ij`` plus delta-SPH
   density diffusion (Molteni & Colagrossi 2009; Fourtakas et al. 2019 subtract its hydrostatic
-  part so a tank at rest stays at rest);
+  part so a tank at rest stays at rest; Antuono et al. 2010 subtract its linear part, from
+  renormalised density gradients, so any linear density field -- the discrete hydrostatic one
+  included -- is left alone);
 * Tait equation of state;
 * momentum-conserving pressure gradient ``-sum_j m_j (p_i + p_j)/(rho_i rho_j) grad W_ij``;
 * Monaghan artificial viscosity or a laminar (Morris / Lo & Shao) term;
@@ -28,8 +30,8 @@ from .kernels import kernel_pair
 from .neighbours import Pairs, Rows, neighbour_kind, pairs, scan_rows, take, transpose_sum, wrap_positions
 from .walls import adami_finish, adami_sums, adami_terms, wall_pair_geometry
 
-__all__ = ["PairTerms", "pair_terms", "density_rate", "acceleration", "pressure", "advance", "prime",
-           "hydrostatic_density_difference"]
+__all__ = ["PairTerms", "pair_terms", "density_rate", "density_gradient", "acceleration", "pressure", "advance",
+           "prime", "hydrostatic_density_difference"]
 
 
 class PairTerms(NamedTuple):
@@ -71,8 +73,54 @@ def hydrostatic_density_difference(g_dx, params: Params, config: Config):
     return f.rho0 * a * (c1 + a * (c2 + a * (c3 + a * c4)))
 
 
+def _antuono(config: Config) -> bool:
+    return config.density_diffusion == DensityDiffusion.ANTUONO
+
+
 def _terms(pr: Pairs, kind, params, config, terms: Optional[PairTerms]) -> PairTerms:
     return pair_terms(pr, kind, params, config) if terms is None else terms
+
+
+def _density_gradient_rows(pr: Pairs, t: PairTerms, rho, vol, params: Params):
+    """Renormalised density gradient of a block of rows over their fluid neighbours: [R, 3] kg/m^4.
+
+    ``g_i = C_i^-1 b_i`` with ``b_i = sum_j V_j (rho_j - rho_i) (-F_ij) x_ji`` and
+    ``C_i = sum_j V_j (-F_ij) x_ji (x) x_ji`` (Randles & Libersky 1996; the ``L`` of Antuono et al.
+    2010): exact for a linear density field whatever the neighbourhood (free surface, walls). Where
+    ``C_i`` is near singular (``det C < 1e-3``; ``C = I`` inside the fluid, ``I / 2`` at a flat free
+    surface, ``det = 1/64`` in a corner) -- a particle with a few neighbours -- the uncorrected
+    ``b_i`` is used.
+    """
+    f = params.fluid
+    rows, idx, d = pr.rows, pr.idx, pr.d
+    rho_j = take(rho, idx)
+    w = jnp.where(t.kind_j == Kind.FLUID, (-f.rho0) * take(vol, idx) / rho_j * t.F, 0.0)  # V_j (-F) >= 0
+    wd = w * (rho_j - rows.of(rho)[:, None])
+    b = [-jnp.sum(wd * d[a], axis=1) for a in range(3)]  # x_ji = -d
+    c = {(a, bb): jnp.sum(w * d[a] * d[bb], axis=1) for a in range(3) for bb in range(a, 3)}
+    c00, c01, c02, c11, c12, c22 = c[0, 0], c[0, 1], c[0, 2], c[1, 1], c[1, 2], c[2, 2]
+    a00 = c11 * c22 - c12 * c12
+    a01 = c02 * c12 - c01 * c22
+    a02 = c01 * c12 - c02 * c11
+    a11 = c00 * c22 - c02 * c02
+    a12 = c01 * c02 - c00 * c12
+    a22 = c00 * c11 - c01 * c01
+    det = c00 * a00 + c01 * a01 + c02 * a02
+    ok = det > 1e-3
+    inv = jnp.where(ok, 1.0 / jnp.where(ok, det, 1.0), 0.0)
+    g = [(a00 * b[0] + a01 * b[1] + a02 * b[2]) * inv,
+         (a01 * b[0] + a11 * b[1] + a12 * b[2]) * inv,
+         (a02 * b[0] + a12 * b[1] + a22 * b[2]) * inv]
+    return jnp.stack([jnp.where(ok, g[a], b[a]) for a in range(3)], axis=1)
+
+
+def density_gradient(pr: Pairs, rho, vol, kind, params: Params, config: Config, *,
+                     terms: Optional[PairTerms] = None):
+    """Renormalised density gradient [N, 3] kg/m^4 of the fluid rows (zero on walls): see
+    ``_density_gradient_rows``. Used by ``DensityDiffusion.ANTUONO``."""
+    t = _terms(pr, kind, params, config, terms)
+    g = _density_gradient_rows(pr, t, rho, vol, params)
+    return jnp.concatenate([g, jnp.zeros((config.n_wall, 3), g.dtype)])
 
 
 def pressure(pr: Pairs, rho, kind, params: Params, config: Config, *, terms: Optional[PairTerms] = None):
@@ -107,8 +155,11 @@ def _wall_pressure(p, rho, kind, adami_sums, params: Params, config: Config):
 
 
 def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params, config: Config, *,
-                     wall_terms: bool = True):
+                     wall_terms: bool = True, grad_rho=None):
     """Continuity sums of a block of rows: ``(drho/dt [R], wall terms [R, K] or None)``.
+
+    ``grad_rho`` [N, 3]: the renormalised density gradients (``density_gradient``), needed by
+    ``DensityDiffusion.ANTUONO`` only.
 
     The wall terms ``V_i (v_ij . x_ij) F_ij`` on fluid-to-wall pairs (dynamic walls only, and
     only if ``wall_terms``), summed onto the walls by ``transpose_sum`` and multiplied by the wall
@@ -127,6 +178,10 @@ def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params,
         if config.density_diffusion == DensityDiffusion.FOURTAKAS:
             g_dx = -(d[0] * params.gravity[0] + d[1] * params.gravity[1] + d[2] * params.gravity[2])
             diff = diff - hydrostatic_density_difference(g_dx, params, config)
+        elif config.density_diffusion == DensityDiffusion.ANTUONO:
+            # minus the linear part: (rho_j - rho_i) - (g_i + g_j) / 2 . x_ji, with x_ji = -d
+            g_i = rows.of(grad_rho)
+            diff = diff + 0.5 * sum((g_i[:, a, None] + take(grad_rho[:, a], idx)) * d[a] for a in range(3))
         drho = drho + jnp.where(kind_j == Kind.FLUID, (-2.0 * f.delta * f.h * f.c0) * V_j * diff * F, 0.0)
     fluid = rows.of(kind) == Kind.FLUID
     wall_out = None
@@ -142,7 +197,8 @@ def density_rate(pr: Pairs, v, rho, vol, kind, params: Params, config: Config, *
                  terms: Optional[PairTerms] = None):
     """Continuity equation with delta-SPH diffusion: drho/dt [N] kg/m^3/s (fluid and dynamic walls)."""
     t = _terms(pr, kind, params, config, terms)
-    drho_f, wall_terms = _continuity_rows(pr, t, v, rho, vol, kind, params, config)
+    g = density_gradient(pr, rho, vol, kind, params, config, terms=t) if _antuono(config) else None
+    drho_f, wall_terms = _continuity_rows(pr, t, v, rho, vol, kind, params, config, grad_rho=g)
     nf = config.n_fluid
     drho_w = jnp.zeros((config.n_wall,), rho.dtype)
     if wall_terms is not None:
@@ -231,7 +287,8 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     same mid-step velocities, so the pressure is never half a step behind the positions (a lag
     that was measured to make the scheme unstable at Courant 0.25).
 
-    Two passes over the rows' pairs, each in blocks of ``config.effective_row_tile`` rows (``scan_rows``;
+    Two passes over the rows' pairs (three with ``DensityDiffusion.ANTUONO``: its density gradients
+    first), each in blocks of ``config.effective_row_tile`` rows (``scan_rows``;
     the pair geometry is recomputed in the second pass rather than stored, since a stored [n, K]
     array costs more memory traffic than its arithmetic): (1) continuity, then each row's new
     density and pressure; (2) the momentum sum. Between them, the walls' sums (Adami pressure or
@@ -250,10 +307,20 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     dynamic = nw > 0 and config.wall_model == WallModel.DYNAMIC
     w_fn, _ = kernel_pair(config.kernel)
 
+    grad_rho = None
+    if _antuono(config):
+        def gradient_pass(rows: Rows, own, carry):
+            pr = pairs(x_new, kind, nbrs.idx, config, rows=rows)
+            return carry, _density_gradient_rows(pr, pair_terms(pr, kind, params, config), P.rho, P.vol, params)
+
+        _, g_f = scan_rows(gradient_pass, nf, config.effective_row_tile, None)
+        grad_rho = jnp.concatenate([g_f, jnp.zeros((nw, 3), g_f.dtype)])
+
     def continuity_pass(rows: Rows, own, carry):
         pr = pairs(x_new, kind, nbrs.idx, config, rows=rows)
         t = pair_terms(pr, kind, params, config)
-        drho, _ = _continuity_rows(pr, t, v_half, P.rho, P.vol, kind, params, config, wall_terms=False)
+        drho, _ = _continuity_rows(pr, t, v_half, P.rho, P.vol, kind, params, config, wall_terms=False,
+                                   grad_rho=grad_rho)
         rho_i = rows.of(P.rho)
         rho_new = jnp.where(rows.of(evolving), rho_i + dt * drho, rho_i)
         return carry, (drho, rho_new, tait_pressure(rho_new, f.rho0, f.c0, config.gamma))
