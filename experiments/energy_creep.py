@@ -6,7 +6,8 @@ total energy (kinetic + potential + Tait elastic, ``validation.energy_history``)
 few 1e-3 m g 2a over ~10 s. Two measurements, float64 (float32 creeps the same, see the test):
 
 * ``resolution``: the same scene at a/dx = 4, 6, 8 to ``--t-end``: the rebound (max over t of
-  E(t) - min_{s<=t} E(s)) and E(t_end) - E(t_end / 2), in m g 2a;
+  E(t) - min_{s<=t} E(s)) and E(t_end) - E(t_end / 2), in m g 2a; ``--diffusion fourtakas antuono``
+  runs it with each density diffusion (Antuono et al. 2010's consistent term: the fix);
 * ``continuation`` (a/dx = 4): from the state at ``--t-start`` the run is continued for ``--t-len``
   with one term switched off at a time (same state, same dt): artificial viscosity (alpha = 0),
   density diffusion (delta = 0), both, and the Fourtakas hydrostatic term replaced by its odd part
@@ -38,13 +39,14 @@ import numpy as np  # noqa: E402
 A = 0.08
 
 
-def _scene(a_over_dx: int):
+def _scene(a_over_dx: int, diffusion: str = "fourtakas"):
     import rockjax as rj
 
     dx = A / a_over_dx
     w = 7 * dx
     return rj.scenes.dam_break(dx=dx, column_length=A, column_width=w, column_height=2 * A, tank_length=2 * A,
-                               tank_width=w, tank_height=4 * A, periodic_y=True)
+                               tank_width=w, tank_height=4 * A, periodic_y=True,
+                               density_diffusion=rj.DensityDiffusion(diffusion))
 
 
 def _energy(res, scene):
@@ -56,10 +58,10 @@ def _energy(res, scene):
     return e["t"], {k: v / scale for k, v in e.items() if k != "t"}
 
 
-def resolution(a_over_dx: int, t_end: float) -> dict:
+def resolution(a_over_dx: int, t_end: float, diffusion: str = "fourtakas") -> dict:
     import rockjax as rj
 
-    scene = _scene(a_over_dx)
+    scene = _scene(a_over_dx, diffusion)
     t0 = time.perf_counter()
     res = rj.simulate(scene, t_end=t_end, frame_dt=0.25, progress=False)
     wall = time.perf_counter() - t0
@@ -68,7 +70,7 @@ def resolution(a_over_dx: int, t_end: float) -> dict:
     half = int(np.searchsorted(t, t[-1] / 2))
     fl = np.asarray(res.frames["kind"][0]) == rj.Kind.FLUID
     z = np.asarray(res.frames["x"])[:, fl, 2]
-    return {"case": "resolution", "a_over_dx": a_over_dx, "n_fluid": scene.config.n_fluid, "dt": scene.config.dt,
+    return {"case": "resolution", "diffusion": diffusion, "a_over_dx": a_over_dx, "n_fluid": scene.config.n_fluid, "dt": scene.config.dt,
             "steps": res.stats["steps"], "t_end": float(t[-1]), "wall_s": wall, "lost": float(tot[0] - tot.min()),
             "t_min": float(t[np.argmin(tot)]), "rebound": float(np.max(tot - np.minimum.accumulate(tot))),
             "late": float(tot[-1] - tot[half]), "t_half": float(t[half]), "kinetic_end": float(e["kinetic"][-1]),
@@ -114,10 +116,12 @@ def main():
     ap.add_argument("--t-end", type=float, default=16.0)
     ap.add_argument("--t-start", type=float, default=4.0)
     ap.add_argument("--t-len", type=float, default=6.0)
+    ap.add_argument("--diffusion", nargs="*", default=["fourtakas"], choices=["fourtakas", "antuono", "molteni"],
+                    help="density diffusion of the resolution runs (each)")
     ap.add_argument("--out", default=None)
     a = ap.parse_args()
     stamp = {"date": datetime.date.today().isoformat(), "dtype": "float64", "load": os.getloadavg()[0]}
-    recs = [resolution(n, a.t_end) for n in a.a_over_dx] + (continuation(a.t_start, a.t_len) if a.t_len > 0 else [])
+    recs = [resolution(n, a.t_end, d) for d in a.diffusion for n in a.a_over_dx] + (continuation(a.t_start, a.t_len) if a.t_len > 0 else [])
     for r in recs:
         line = json.dumps({**r, **stamp})
         print(line, flush=True)

@@ -485,10 +485,11 @@ def sec_energy_creep(doc: Doc):
           "`rebound` = max_t E(t) - min_{s<=t} E(s) (stress bound 3e-3); `late` = E(t_end) - E(t_end / 2) "
           "(stress bound 1e-3 over the second half); `lowest z / dx` = the lowest water particle over dx at "
           "t_end / 2 and t_end (0.5 on the initial lattice).")
-    rows = [[r.get("a_over_dx"), r.get("n_fluid"), r.get("steps"), r.get("t_end"), r.get("lost"), r.get("t_min"),
-             r.get("rebound"), r.get("late"), r.get("kinetic_end"), r.get("lowest_particle_z_over_dx"), r.get("date")]
+    rows = [[r.get("diffusion", "fourtakas"), r.get("a_over_dx"), r.get("n_fluid"), r.get("steps"), r.get("t_end"),
+             r.get("lost"), r.get("t_min"), r.get("rebound"), r.get("late"), r.get("kinetic_end"),
+             r.get("lowest_particle_z_over_dx"), r.get("date")]
             for r in recs if r.get("case") == "resolution"]
-    doc.p(table(["a/dx", "n_fluid", "steps", "t_end s", "lost", "t of min s", "rebound", "late", "kinetic end",
+    doc.p(table(["diffusion", "a/dx", "n_fluid", "steps", "t_end s", "lost", "t of min s", "rebound", "late", "kinetic end",
                  "lowest z / dx", "date"], rows))
     cont = [r for r in recs if r.get("case") == "continuation"]
     if cont:

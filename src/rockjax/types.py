@@ -404,6 +404,8 @@ class Particles:
     body: [N] int32 block that carries the particle (boundary-particle coupling), -1 for none;
         None when the scene has no such particles.
     x_body: [N, 3] m, the particle's position in its block's body frame (None likewise).
+    grad_rho: [N, 3] kg/m^4, renormalised density gradient at the last momentum pass (fluid rows;
+        zero on walls), for ``DensityDiffusion.ANTUONO``; None otherwise (``wcsph.prime`` fills it).
     """
 
     x: jax.Array
@@ -417,6 +419,7 @@ class Particles:
     pid: jax.Array
     body: Optional[jax.Array] = None
     x_body: Optional[jax.Array] = None
+    grad_rho: Optional[jax.Array] = None
 
 
 @_pytree_dataclass

@@ -81,22 +81,16 @@ def _terms(pr: Pairs, kind, params, config, terms: Optional[PairTerms]) -> PairT
     return pair_terms(pr, kind, params, config) if terms is None else terms
 
 
-def _density_gradient_rows(pr: Pairs, t: PairTerms, rho, vol, params: Params):
-    """Renormalised density gradient of a block of rows over their fluid neighbours: [R, 3] kg/m^4.
+def _renormalised_gradient(d, w, drho):
+    """``C^-1 b`` per row, ``b = sum_k w drho x_ji``, ``C = sum_k w x_ji (x) x_ji`` (``x_ji = -d``): [R, 3].
 
-    ``g_i = C_i^-1 b_i`` with ``b_i = sum_j V_j (rho_j - rho_i) (-F_ij) x_ji`` and
-    ``C_i = sum_j V_j (-F_ij) x_ji (x) x_ji`` (Randles & Libersky 1996; the ``L`` of Antuono et al.
-    2010): exact for a linear density field whatever the neighbourhood (free surface, walls). Where
-    ``C_i`` is near singular (``det C < 1e-3``; ``C = I`` inside the fluid, ``I / 2`` at a flat free
-    surface, ``det = 1/64`` in a corner) -- a particle with a few neighbours -- the uncorrected
-    ``b_i`` is used.
+    ``d``: three [R, K] arrays ``x_i - x_j``; ``w`` [R, K] the pair weights ``V_j (-F_ij) >= 0``
+    (zero off the pairs that count); ``drho`` [R, K] ``rho_j - rho_i``. Where ``det C < 1e-3``
+    (``C = I`` inside the fluid, ``I / 2`` at a flat free surface, ``det = 1/64`` in a corner; a
+    particle with a few neighbours) the uncorrected ``b`` is returned.
     """
-    f = params.fluid
-    rows, idx, d = pr.rows, pr.idx, pr.d
-    rho_j = take(rho, idx)
-    w = jnp.where(t.kind_j == Kind.FLUID, (-f.rho0) * take(vol, idx) / rho_j * t.F, 0.0)  # V_j (-F) >= 0
-    wd = w * (rho_j - rows.of(rho)[:, None])
-    b = [-jnp.sum(wd * d[a], axis=1) for a in range(3)]  # x_ji = -d
+    wd = w * drho
+    b = [-jnp.sum(wd * d[a], axis=1) for a in range(3)]
     c = {(a, bb): jnp.sum(w * d[a] * d[bb], axis=1) for a in range(3) for bb in range(a, 3)}
     c00, c01, c02, c11, c12, c22 = c[0, 0], c[0, 1], c[0, 2], c[1, 1], c[1, 2], c[2, 2]
     a00 = c11 * c22 - c12 * c12
@@ -112,6 +106,20 @@ def _density_gradient_rows(pr: Pairs, t: PairTerms, rho, vol, params: Params):
          (a01 * b[0] + a11 * b[1] + a12 * b[2]) * inv,
          (a02 * b[0] + a12 * b[1] + a22 * b[2]) * inv]
     return jnp.stack([jnp.where(ok, g[a], b[a]) for a in range(3)], axis=1)
+
+
+def _density_gradient_rows(pr: Pairs, t: PairTerms, rho, vol, params: Params):
+    """Renormalised density gradient of a block of rows over their fluid neighbours: [R, 3] kg/m^4.
+
+    ``g_i = C_i^-1 b_i`` with ``b_i = sum_j V_j (rho_j - rho_i) (-F_ij) x_ji`` and
+    ``C_i = sum_j V_j (-F_ij) x_ji (x) x_ji`` (Randles & Libersky 1996; the ``L`` of Antuono et al.
+    2010): exact for a linear density field whatever the neighbourhood (free surface, walls); see
+    ``_renormalised_gradient`` for the near-singular fallback.
+    """
+    f = params.fluid
+    rho_j = take(rho, pr.idx)
+    w = jnp.where(t.kind_j == Kind.FLUID, (-f.rho0) * take(vol, pr.idx) / rho_j * t.F, 0.0)  # V_j (-F) >= 0
+    return _renormalised_gradient(pr.d, w, rho_j - pr.rows.of(rho)[:, None])
 
 
 def density_gradient(pr: Pairs, rho, vol, kind, params: Params, config: Config, *,
@@ -207,13 +215,15 @@ def density_rate(pr: Pairs, v, rho, vol, kind, params: Params, config: Config, *
 
 
 def _acceleration_rows(pr: Pairs, t: PairTerms, v, rho, p, vol, kind, params: Params, config: Config, *,
-                       body=None, bodies: tuple[int, ...] = ()):
+                       body=None, bodies: tuple[int, ...] = (), gradient: bool = False):
     """Momentum sums of a block of rows: acceleration [R, 3] m/s^2 (gravity included; zero off the fluid).
 
     With ``bodies`` (block indices) and ``body`` [N] (the block carrying each particle, -1 for
     none), also the part of each row's acceleration due to the particles of each of those blocks:
     returns ``(acc [R, 3], acc_bodies [R, len(bodies), 3])`` -- the same pair terms, so the loads
     on the blocks are the exact reaction of what the fluid receives (one pass, no extra sums).
+    With ``gradient`` also returns the rows' renormalised density gradient [R, 3] last
+    (``_density_gradient_rows``, from the pass's own gathers).
     """
     f = params.fluid
     h = f.h
@@ -245,14 +255,18 @@ def _acceleration_rows(pr: Pairs, t: PairTerms, v, rho, p, vol, kind, params: Pa
 
     fluid = rows.of(kind) == Kind.FLUID
     acc = jnp.where(fluid[:, None], sums(cf, lam) + params.gravity, 0.0)
-    if not bodies:
-        return acc
-    body_j = take(body, idx)
-    per_body = []
-    for b in bodies:
-        on = body_j == b
-        per_body.append(sums(jnp.where(on, cf, 0.0), None if lam is None else jnp.where(on, lam, 0.0)))
-    return acc, jnp.where(fluid[:, None, None], jnp.stack(per_body, axis=1), 0.0)
+    out = (acc,)
+    if bodies:
+        body_j = take(body, idx)
+        per_body = []
+        for b in bodies:
+            on = body_j == b
+            per_body.append(sums(jnp.where(on, cf, 0.0), None if lam is None else jnp.where(on, lam, 0.0)))
+        out += (jnp.where(fluid[:, None, None], jnp.stack(per_body, axis=1), 0.0),)
+    if gradient:
+        w = jnp.where(t.kind_j == Kind.FLUID, -(m_j / rho_j) * F, 0.0)  # V_j (-F) >= 0
+        out += (_renormalised_gradient(d, w, rho_j - rho_i),)
+    return out[0] if len(out) == 1 else out
 
 
 def acceleration(pr: Pairs, v, rho, p, vol, kind, params: Params, config: Config, *,
@@ -270,7 +284,10 @@ def prime(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -> 
     p, rho = pressure(pr, P.rho, P.kind, params, config, terms=t)
     drho_dt = density_rate(pr, P.v, rho, P.vol, P.kind, params, config, terms=t)
     a = acceleration(pr, P.v, rho, p, P.vol, P.kind, params, config, terms=t)
-    return P.replace(a=a, drho_dt=drho_dt, p=p, rho=rho)
+    P = P.replace(a=a, drho_dt=drho_dt, p=p, rho=rho)
+    if _antuono(config):
+        P = P.replace(grad_rho=density_gradient(pr, rho, P.vol, P.kind, params, config, terms=t))
+    return P
 
 
 def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *,
@@ -287,8 +304,12 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     same mid-step velocities, so the pressure is never half a step behind the positions (a lag
     that was measured to make the scheme unstable at Courant 0.25).
 
-    Two passes over the rows' pairs (three with ``DensityDiffusion.ANTUONO``: its density gradients
-    first), each in blocks of ``config.effective_row_tile`` rows (``scan_rows``;
+    ``DensityDiffusion.ANTUONO`` uses ``P.grad_rho``, the renormalised density gradients that the
+    previous step's momentum pass computed at (x, rho) -- one drift behind the continuity pass, an
+    O(dt) lag in an O(h^2) term -- and the momentum pass computes the next ones from its own
+    gathers (no extra pass; an unprimed state without them gets an extra gradient pass).
+
+    Two passes over the rows' pairs, each in blocks of ``config.effective_row_tile`` rows (``scan_rows``;
     the pair geometry is recomputed in the second pass rather than stored, since a stored [n, K]
     array costs more memory traffic than its arithmetic): (1) continuity, then each row's new
     density and pressure; (2) the momentum sum. Between them, the walls' sums (Adami pressure or
@@ -307,8 +328,8 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     dynamic = nw > 0 and config.wall_model == WallModel.DYNAMIC
     w_fn, _ = kernel_pair(config.kernel)
 
-    grad_rho = None
-    if _antuono(config):
+    grad_rho = P.grad_rho
+    if _antuono(config) and grad_rho is None:  # not primed by ``prime``: an extra pass
         def gradient_pass(rows: Rows, own, carry):
             pr = pairs(x_new, kind, nbrs.idx, config, rows=rows)
             return carry, _density_gradient_rows(pr, pair_terms(pr, kind, params, config), P.rho, P.vol, params)
@@ -344,15 +365,20 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     sums = adami_sums(wp, p_f, rho_f, params.gravity, f.h, w_fn, n) if adami else None
     p, rho_new = _wall_pressure(p, rho_new, kind, sums, params, config)
 
+    antuono = _antuono(config)
+
     def momentum_pass(rows: Rows, own, carry):
         pr = pairs(x_new, kind, nbrs.idx, config, rows=rows)
         t = pair_terms(pr, kind, params, config)
-        return carry, _acceleration_rows(pr, t, v_half, rho_new, p, P.vol, kind, params, config, body=P.body,
-                                         bodies=bodies)
+        out = _acceleration_rows(pr, t, v_half, rho_new, p, P.vol, kind, params, config, body=P.body,
+                                 bodies=bodies, gradient=antuono)
+        return carry, out if isinstance(out, tuple) else (out,)
 
     _, out = scan_rows(momentum_pass, nf, config.effective_row_tile, None)
-    a_f = out[0] if bodies else out
+    a_f = out[0]
     a = jnp.concatenate([a_f, jnp.zeros((nw, 3), a_f.dtype)])
     v_new = jnp.where(fluid[:, None], v_half + 0.5 * dt * a, v_half)
     P = P.replace(x=x_new, v=v_new, a=a, rho=rho_new, drho_dt=drho_dt, p=p)
+    if antuono and P.grad_rho is not None:  # for the next step's diffusion (one drift behind it: an O(dt) lag)
+        P = P.replace(grad_rho=jnp.concatenate([out[-1], jnp.zeros((nw, 3), a_f.dtype)]))
     return (P, out[1]) if bodies else P
