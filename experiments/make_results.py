@@ -484,7 +484,10 @@ def sec_energy_creep(doc: Doc):
     doc.p("The stress long run's scene (column a x 2a, a = 0.08 m, periodic slab), float64. Energies in m g 2a. "
           "`rebound` = max_t E(t) - min_{s<=t} E(s) (stress bound 3e-3); `late` = E(t_end) - E(t_end / 2) "
           "(stress bound 1e-3 over the second half); `lowest z / dx` = the lowest water particle over dx at "
-          "t_end / 2 and t_end (0.5 on the initial lattice).")
+          "t_end / 2 and t_end (0.5 on the initial lattice). `diffusion`: the WCSPH density diffusion -- the "
+          "default Fourtakas et al. (2019) term pulls pair differences to the exact hydrostatic ones and lifts the "
+          "column (the creep); Antuono et al. (2010)'s consistent term (`DensityDiffusion.ANTUONO`) leaves any "
+          "linear profile alone and removes it.")
     rows = [[r.get("diffusion", "fourtakas"), r.get("a_over_dx"), r.get("n_fluid"), r.get("steps"), r.get("t_end"),
              r.get("lost"), r.get("t_min"), r.get("rebound"), r.get("late"), r.get("kinetic_end"),
              r.get("lowest_particle_z_over_dx"), r.get("date")]
