@@ -504,6 +504,29 @@ def sec_energy_creep(doc: Doc):
                      "kinetic end", "date"], rows))
 
 
+def sec_hydrostatic_rest(doc: Doc):
+    doc.h("A layer of water at rest: lattice and pressure (h = 1.3 vs 1.5 dx)")
+    recs = doc.records("hydrostatic_rest.jsonl",
+                       "python experiments/hydrostatic_rest.py --out experiments/results/hydrostatic_rest.jsonl")
+    if recs is None:
+        return
+    doc.p("The benchmark-resolution hydrostatic scene (20 layers, dx = 0.01 m, periodic x and y), WCSPH + Adami "
+          "walls. `p / rho g d`: the probe pressure at depths 0.05-0.17 m over the closed form, at 0.4 s (what the "
+          "test reads) and its mean / min / max over the frames from 0.4 s on. `mean displacement`: the fluid "
+          "particles' mean distance from the initial cubic lattice, in dx, at the last frame; `v rms`: the largest rms "
+          "speed after 0.4 s. At h = 1.3 dx the lattice rearranges (from ~0.5 s) and the pressure keeps "
+          "fluctuating; at h = 1.5 dx it stays.")
+    rows = []
+    for r in recs:
+        late = [v for t, v in zip(r.get("t_samples", []), r.get("v_rms", [])) if t >= 0.4]
+        rows.append([r.get("h_factor"), r.get("diffusion"), r.get("t_end"), r.get("p_ratio_at_0.4s"),
+                     r.get("p_ratio_mean_from_0.4s"), r.get("p_ratio_min_from_0.4s"), r.get("p_ratio_max_from_0.4s"),
+                     (r.get("mean_displacement_dx") or [None])[-1], max(late) if late else None,
+                     r.get("date")])
+    doc.p(table(["h / dx", "diffusion", "t_end s", "p / rho g d at 0.4 s", "mean from 0.4 s", "min", "max",
+                 "mean displacement / dx", "v rms m/s", "date"], rows))
+
+
 def sec_stress(doc: Doc):
     doc.h("Stress suite (`pytest -m stress`)")
     recs = doc.records("stress.jsonl", "python experiments/make_results.py --stress-junit JUNIT.xml (after "
@@ -526,7 +549,7 @@ def sec_stress(doc: Doc):
 
 
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_calibration, sec_piston,
-            sec_wedge, sec_energy_creep, sec_stress]
+            sec_wedge, sec_energy_creep, sec_hydrostatic_rest, sec_stress]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:

@@ -31,7 +31,8 @@ KH, DEPTH, STROKE, FLAT = 1.0, 0.3, 0.04, 4.0
 GAUGES = [0.3, 0.6, 0.9, 1.2, 1.8]
 
 
-def simulate(dx: float, coupling: str, t_end: float, npz: str, *, alpha=None, wall_viscosity=None) -> None:
+def simulate(dx: float, coupling: str, t_end: float, npz: str, *, alpha=None, wall_viscosity=None,
+             h_factor: float = 1.3, diffusion: str = "fourtakas") -> None:
     import jax.numpy as jnp
 
     import rockjax as rj
@@ -40,7 +41,8 @@ def simulate(dx: float, coupling: str, t_end: float, npz: str, *, alpha=None, wa
     T = linear_wave(KH, DEPTH)["period"]
     scene = rj.scenes.piston_wavemaker(dx=dx, stroke=STROKE, period=T, water_depth=DEPTH, flat_length=FLAT,
                                        beach_slope=0.3, flume_width=7 * dx, coupling=rj.Coupling(coupling),
-                                       gauge_x=GAUGES)
+                                       gauge_x=GAUGES, h_factor=h_factor)
+    scene = scene.replace(config=scene.config.replace(density_diffusion=rj.DensityDiffusion(diffusion)))
     fl = scene.params.fluid
     fl = fl.replace(alpha=fl.alpha if alpha is None else jnp.asarray(alpha, fl.alpha.dtype),
                     wall_viscosity=fl.wall_viscosity if wall_viscosity is None
@@ -50,7 +52,8 @@ def simulate(dx: float, coupling: str, t_end: float, npz: str, *, alpha=None, wa
     res = rj.simulate(scene, t_end=t_end, frame_dt=T / 24, observe=scene_observer(scene.meta), progress=False)
     np.savez(npz, t=res.times, eta=res.observed["gauges"], T=T, gx=GAUGES, theory=piston_transfer(KH),
              wall=time.perf_counter() - t0, n=scene.config.n_fluid, dx=dx, coupling=coupling,
-             load=os.getloadavg()[0], alpha=float(fl.alpha), wall_viscosity=float(fl.wall_viscosity))
+             load=os.getloadavg()[0], alpha=float(fl.alpha), wall_viscosity=float(fl.wall_viscosity),
+             h_factor=h_factor, diffusion=diffusion)
 
 
 def analyse(npz: str, delays=(0, 1, 2)) -> dict:
@@ -87,6 +90,8 @@ def analyse(npz: str, delays=(0, 1, 2)) -> dict:
                 coupling=str(d["coupling"]) if "coupling" in d else None, n_fluid=int(d["n"]),
                 alpha=float(d["alpha"]) if "alpha" in d else 0.02,
                 wall_viscosity=float(d["wall_viscosity"]) if "wall_viscosity" in d else 1.0,
+                h_factor=float(d["h_factor"]) if "h_factor" in d else 1.3,
+                diffusion=str(d["diffusion"]) if "diffusion" in d else "fourtakas",
                 t_end=float(t[-1]), wall_s=float(d["wall"]), theory_H_over_S=theory, gauges=rows,
                 k_fit=k_fit, k_theory=KH / DEPTH)
 
@@ -99,6 +104,8 @@ def main():
     ap.add_argument("--alpha", type=float, default=None, help="artificial viscosity (default: the scene's)")
     ap.add_argument("--wall-viscosity", type=float, default=None,
                     help="viscous factor towards walls/blocks (default: the scene's; 0 = free slip)")
+    ap.add_argument("--h-factor", type=float, default=1.3, help="smoothing length / dx")
+    ap.add_argument("--diffusion", default="fourtakas", choices=["fourtakas", "antuono", "molteni"])
     ap.add_argument("--out", default=None, help="JSON-lines file the record is appended to "
                                                 "(default results/piston_decay.jsonl)")
     ap.add_argument("--from-npz", default=None, help="analyse a saved run instead of simulating")
@@ -106,7 +113,8 @@ def main():
     a = ap.parse_args()
     npz = a.from_npz
     if npz is None:
-        simulate(a.dx, a.coupling, a.t_end, a.npz, alpha=a.alpha, wall_viscosity=a.wall_viscosity)
+        simulate(a.dx, a.coupling, a.t_end, a.npz, alpha=a.alpha, wall_viscosity=a.wall_viscosity,
+                 h_factor=a.h_factor, diffusion=a.diffusion)
         npz = a.npz
     rec = analyse(npz)
     print(json.dumps(rec))
