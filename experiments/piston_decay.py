@@ -40,7 +40,8 @@ def simulate(dx: float, coupling: str, t_end: float, npz: str, *, alpha=None, wa
 
     T = linear_wave(KH, DEPTH)["period"]
     scene = rj.scenes.piston_wavemaker(dx=dx, stroke=STROKE, period=T, water_depth=DEPTH, flat_length=FLAT,
-                                       beach_slope=0.3, flume_width=7 * dx, coupling=rj.Coupling(coupling),
+                                       beach_slope=0.3, flume_width=(7 if h_factor <= 1.3 else 8) * dx,
+                                       coupling=rj.Coupling(coupling),
                                        gauge_x=GAUGES, h_factor=h_factor)
     scene = scene.replace(config=scene.config.replace(density_diffusion=rj.DensityDiffusion(diffusion)))
     fl = scene.params.fluid
