@@ -454,11 +454,13 @@ def sec_piston(doc: Doc):
         for g in r.get("gauges", []):
             fits = {f["delay_periods"]: f for f in g.get("fits", [])}
             f0, f2 = fits.get(0, {}), fits.get(2, {})
-            rows.append([r.get("dx"), r.get("n_fluid"), r.get("alpha"), r.get("wall_viscosity"), r.get("t_end"),
-                         g["x_over_depth"], f0.get("H_over_S"), f2.get("periods"), f2.get("H_over_S"),
-                         f2.get("rel_error"), f2.get("H2_over_S"), r.get("theory_H_over_S")])
-    doc.p(table(["dx [m]", "n_fluid", "alpha", "wall visc.", "t_end [s]", "x / depth", "H/S from arrival",
-                 "periods (developed)", "H/S developed", "rel. error", "2nd harm. H2/S", "theory H/S"], rows))
+            rows.append([r.get("dx"), r.get("h_factor", 1.3), r.get("n_fluid"), r.get("alpha"), r.get("wall_viscosity"),
+                         r.get("t_end"), g["x_over_depth"], f0.get("H_over_S"), f2.get("periods"), f2.get("H_over_S"),
+                         f2.get("rel_error"), f2.get("H2_over_S"), r.get("theory_H_over_S"), r.get("k_fit"),
+                         r.get("date")])
+    doc.p(table(["dx [m]", "h / dx", "n_fluid", "alpha", "wall visc.", "t_end [s]", "x / depth", "H/S from arrival",
+                 "periods (developed)", "H/S developed", "rel. error", "2nd harm. H2/S", "theory H/S",
+                 "k fit [1/m] (theory 3.333)", "date"], rows))
 
 
 def sec_wedge(doc: Doc):

@@ -28,7 +28,7 @@ def run(*, dx: float, kh: float, depth: float, stroke: float, coupling: str, fla
     T, cg = wave["period"], wave["cg"]
     x_g = gauge_depths * depth
     scene = rj.scenes.piston_wavemaker(dx=dx, stroke=stroke, period=T, water_depth=depth, flat_length=flat_length,
-                                       beach_slope=0.3, flume_width=7 * dx, coupling=rj.Coupling(coupling),
+                                       beach_slope=0.3, coupling=rj.Coupling(coupling),
                                        gauge_x=[x_g])
     # the developed train at the gauge: from the front's arrival + 2 periods (the front is spread
     # by dispersion) until the reflection off the beach (~flat_length away) could return

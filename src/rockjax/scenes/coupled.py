@@ -363,7 +363,7 @@ def block_drop(*, dx: float = 0.02, box_size=(0.1, 0.1, 0.1), box_density: float
 def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float = 1.0, water_depth: float = 0.3,
                      flat_length: float = 2.0, beach_slope: float = 0.04, beach_length: float | None = None,
                      flume_width: float | None = None, periodic_y: bool = True, coupling: Coupling = Coupling.PENALTY,
-                     gauge_x=None, h_factor: float = 1.3, c0: float | None = None, alpha: float = 0.02,
+                     gauge_x=None, h_factor: float = 1.5, c0: float | None = None, alpha: float = 0.02,
                      wall_viscosity: float = 1.0, ramp_periods: float = 0.0) -> Scene:
     """The seed's first example: a piston wave maker, a flat section and a sloping beach.
 
@@ -376,15 +376,19 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     runs to x = ``flat_length``, then the beach rises at ``beach_slope`` (rise/run; the seed's is
     4 %) for ``beach_length`` (default: up to 0.5 water depths above the still level). Wave gauges at ``gauge_x`` [m]
     (default 0.3 and 0.6 of the flat). ``periodic_y`` makes the flume a
-    thin periodic slab (a 2D flume experiment; ``flume_width`` defaults to 7 dx then, the
-    narrowest period the neighbour search allows, else to 0.1 m). The paper's scale (70 m flat, ~65k particles) is
+    thin periodic slab (a 2D flume experiment; ``flume_width`` defaults then to the narrowest
+    period the neighbour search allows, 2 (2 h + 0.6 dx) rounded up to whole dx: 8 dx at the default
+    h = 1.5 dx, 7 dx at 1.3; else to 0.1 m). ``h_factor`` defaults to 1.5 (not the 1.3 of the other
+    scenes): at 1.3 a resting cubic lattice rearranges (``experiments/hydrostatic_rest.py``) and
+    the generated waves came out 11 % low and 3 % long at dx = 0.03 m, at 1.5 within 4 % and 0.4 %
+    (``experiments/piston_decay.py``, RESULTS.md). The paper's scale (70 m flat, ~65k particles) is
     ``dx`` ~0.1 with ``flat_length=70``; the default is a small flume for tests. ``alpha``: artificial
     viscosity; ``wall_viscosity``: its factor towards the bed, walls and paddle (0 = free slip; see
     ``FluidParams``).
     """
     dx = _positive("piston_wavemaker: dx", dx)
     if flume_width is None:
-        flume_width = 7 * dx if periodic_y else 0.1
+        flume_width = math.ceil(2 * (2 * h_factor + 0.6) - 1e-9) * dx if periodic_y else 0.1
     for nm, v in (("stroke", stroke), ("period", period), ("water_depth", water_depth),
                   ("flat_length", flat_length), ("beach_slope", beach_slope), ("flume_width", flume_width)):
         _positive(f"piston_wavemaker: {nm}", v)
