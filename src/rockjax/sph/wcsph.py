@@ -81,6 +81,10 @@ def _terms(pr: Pairs, kind, params, config, terms: Optional[PairTerms]) -> PairT
     return pair_terms(pr, kind, params, config) if terms is None else terms
 
 
+#: below this ``det C`` the renormalised gradient falls back to the uncorrected one
+RENORMALISATION_DET_MIN = 1e-3
+
+
 def _renormalised_gradient(d, w, drho):
     """``C^-1 b`` per row, ``b = sum_k w drho x_ji``, ``C = sum_k w x_ji (x) x_ji`` (``x_ji = -d``): [R, 3].
 
@@ -100,7 +104,7 @@ def _renormalised_gradient(d, w, drho):
     a12 = c01 * c02 - c00 * c12
     a22 = c00 * c11 - c01 * c01
     det = c00 * a00 + c01 * a01 + c02 * a02
-    ok = det > 1e-3
+    ok = det > RENORMALISATION_DET_MIN
     inv = jnp.where(ok, 1.0 / jnp.where(ok, det, 1.0), 0.0)
     g = [(a00 * b[0] + a01 * b[1] + a02 * b[2]) * inv,
          (a01 * b[0] + a11 * b[1] + a12 * b[2]) * inv,
