@@ -33,11 +33,11 @@ hydrostatic one, while the discrete equilibrium (kernel truncation at the floor 
 Adami walls) has a slightly different profile: the diffusion keeps working against it and lifts
 the column. Antuono et al. (2010)'s consistent diffusion (``DensityDiffusion.ANTUONO``) removes
 the linear part of each pair's difference with renormalised gradients, so any linear profile is
-left alone. The third run (``wcsph-antuono``) uses it: measured (float32, 1e5 steps, 54 s)
-rebound 3.5e-4, late drift 2.9e-5 -- within the bounds. The default WCSPH run (Fourtakas, the
-default diffusion) keeps its measured failures; why Fourtakas stays the default: RESULTS.md
-("WCSPH energy rebound") and README (at a/dx = 6 the Antuono term lets the energy jump 5.2e-3 in the
-impact, against 1.35e-3 with Fourtakas, and costs ~30 % more per step).
+left alone. The third run (``wcsph-antuono``) uses it: measured (float32, 1e5 steps, 41 s)
+rebound 5.2e-4, late drift 5.0e-5 -- within the bounds. The default WCSPH run (Fourtakas, the
+default diffusion) keeps its measured failures; why Fourtakas stays the default: README (Antuono
+costs ~30 % more per step, and in test_energy.py's impact at a/dx = 6 the energy jumps 2.6e-3
+within a frame with it, 1.35e-3 with Fourtakas).
 """
 
 from __future__ import annotations

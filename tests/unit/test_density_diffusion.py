@@ -2,7 +2,8 @@
 
 * The renormalised density gradient (``wcsph.density_gradient``, Randles & Libersky 1996) is
   exact for a linear density field, at the free surface and next to walls too (its matrix C_i
-  absorbs the truncated kernel).
+  absorbs the truncated kernel); with its fade-out it stays exact wherever det C_i is above
+  ``RENORMALISATION_DET_RANGE`` and is scaled down (to 0) below.
 * Antuono et al. (2010)'s consistent diffusion subtracts the linear part of each pair's density
   difference, so a linear field gets no diffusion at all (Molteni & Colagrossi's uncorrected term
   does, near the surface and the walls: the test would see a wrong correction).
@@ -48,7 +49,25 @@ def _rate(sc, P, idx, diffusion, rho=None):
     return np.asarray(wcsph.density_rate(pr, jnp.zeros_like(P.v), rho, P.vol, P.kind, sc.params, config))
 
 
-def test_renormalised_gradient_is_exact_for_a_linear_field(column):
+@pytest.fixture
+def no_fade(monkeypatch):
+    """The renormalised gradient without its fade-out at poorly conditioned rows (the pure algebra)."""
+    monkeypatch.setattr(wcsph, "RENORMALISATION_DET_RANGE", (1e-12, 2e-12))
+
+
+def _det_C(sc, P, idx):
+    """det of the renormalisation matrix per fluid row, computed here in numpy."""
+    config, f = sc.config, sc.params.fluid
+    pr = pairs(P.x, P.kind, idx, config)
+    t = wcsph.pair_terms(pr, P.kind, sc.params, config)
+    fl = np.asarray(t.kind_j) == rj.Kind.FLUID
+    w = np.where(fl, -float(f.rho0) * np.asarray(P.vol)[np.asarray(pr.idx)] / np.asarray(P.rho)[np.asarray(pr.idx)]
+                 * np.asarray(t.F), 0.0)
+    r = np.stack([np.asarray(pr.d[a]) for a in range(3)], axis=-1)  # [R, K, 3]
+    return np.linalg.det(np.einsum("rk,rka,rkb->rab", w, r, r))
+
+
+def test_renormalised_gradient_is_exact_for_a_linear_field(column, no_fade):
     sc, P, idx = column
     config = sc.config
     pr = pairs(P.x, P.kind, idx, config)
@@ -56,7 +75,24 @@ def test_renormalised_gradient_is_exact_for_a_linear_field(column):
     np.testing.assert_allclose(g, np.broadcast_to(G, g.shape), rtol=1e-9, atol=1e-9 * np.abs(G).max())
 
 
-def test_antuono_diffusion_leaves_a_linear_field_alone(column):
+def test_renormalised_gradient_fades_only_at_poorly_conditioned_rows(column):
+    """With the default fade: exact where det C is above the range, zero below it, in between a
+    fraction of the exact one (``RENORMALISATION_DET_RANGE``)."""
+    sc, P, idx = column
+    config = sc.config
+    pr = pairs(P.x, P.kind, idx, config)
+    g = np.asarray(wcsph.density_gradient(pr, P.rho, P.vol, P.kind, sc.params, config))[:config.n_fluid]
+    det = _det_C(sc, P, idx)
+    lo, hi = wcsph.RENORMALISATION_DET_RANGE
+    full, none = det >= hi, det <= lo
+    assert full.sum() > 0.5 * len(det) and none.sum() > 0  # the column's free corners are below the range
+    np.testing.assert_allclose(g[full], np.broadcast_to(G, g[full].shape), rtol=1e-9, atol=1e-9 * np.abs(G).max())
+    np.testing.assert_array_equal(g[none], 0.0)
+    s = np.clip((det - lo) / (hi - lo), 0, 1)
+    np.testing.assert_allclose(g, s[:, None] * G, rtol=1e-6, atol=1e-6 * np.abs(G).max())
+
+
+def test_antuono_diffusion_leaves_a_linear_field_alone(column, no_fade):
     sc, P, idx = column
     nf = sc.config.n_fluid
     scale = 2 * sc.params.fluid.delta * sc.params.fluid.h * sc.params.fluid.c0 * np.abs(G).max() / (0.5 / 5)
