@@ -477,6 +477,28 @@ def sec_wedge(doc: Doc):
                  "max smooth run-up [m]", "wall s", "load"], rows))
 
 
+def sec_wedge_inside(doc: Doc):
+    doc.h("Water inside the sliding wedge (boundary particles)")
+    recs = doc.records("wedge_inside.jsonl",
+                       "python experiments/wedge_inside.py --tag TAG --out experiments/results/wedge_inside.jsonl")
+    if recs is None:
+        return
+    doc.p("`sliding_wedge(dx=0.04, coupling=BOUNDARY_PARTICLES)` to 2 s, frames every 0.025 s: fluid particles "
+          "inside the wedge's geometric polyhedron. `worst` = the deepest, in dx; `at rest` = the deepest and "
+          "the count over the frames after 1.6 s (the wedge lies on the floor); `where` = the deepest one's "
+          "body-frame position at the worst frame (m, from the centroid; front face at x = +L/3, top at z = +H/3).")
+    rows = []
+    for r in recs:
+        fr = r.get("frames", [])
+        late = [f for f in fr if f["t"] >= 1.6]
+        worst = max(fr, key=lambda f: f["depth_dx"]) if fr else {}
+        rows.append([r.get("tag"), r.get("n_boundary"), r.get("frames_with_water_inside"), r.get("worst_depth_dx"),
+                     worst.get("t"), worst.get("body_xyz"), max((f["depth_dx"] for f in late), default=0.0),
+                     max((f["n_inside"] for f in late), default=0), r.get("date")])
+    doc.p(table(["boundary-particle sampling", "boundary particles", "frames with water inside", "worst / dx",
+                 "at t s", "where (body frame)", "at rest: worst / dx", "at rest: particles inside", "date"], rows))
+
+
 def sec_energy_creep(doc: Doc):
     doc.h("WCSPH energy rebound after the impact (stress long-run scene)")
     recs = doc.records("energy_creep.jsonl",
@@ -551,7 +573,7 @@ def sec_stress(doc: Doc):
 
 
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_calibration, sec_piston,
-            sec_wedge, sec_energy_creep, sec_hydrostatic_rest, sec_stress]
+            sec_wedge, sec_wedge_inside, sec_energy_creep, sec_hydrostatic_rest, sec_stress]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:
