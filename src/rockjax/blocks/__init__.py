@@ -7,6 +7,7 @@
 * ``broadphase``: AABBs, all-pairs or sorted uniform grid, fixed-capacity pair buffer.
 * ``fcp``: the Fast Common Plane narrow phase (Nezami et al. 2004).
 * ``contact``: contact points, the penalty / Coulomb contact law, ``contact_forces``.
+* ``joint_water``: hydrostatic water pressure on contact patches (``BlockConfig.joint_water``).
 * ``integrate``: ``advance_blocks``, one central-difference step (seed Eq 5-7).
 
 This package does not import ``rockjax.sph``.

@@ -29,6 +29,12 @@ Contact law per point (forces on j; i gets the opposite, torques about each cent
   current plane each step), ``f_t = -k_s u - c_t v_t`` with ``c_t = 2 zeta sqrt(k_s m_red / n)``; if
   ``|f_t| > f_n tan(phi) + cohesion`` the point slips: ``f_t`` is scaled onto the cap and u
   set to ``-f_t / k_s`` (no dashpot while slipping).  Norms are gradient-safe.
+
+With ``BlockConfig.joint_water`` the pair's contact patch (the polygon of its active points) also
+carries the hydrostatic pressure of a still water level, pushing the two blocks apart
+(``joint_water``).  It is added to the blocks' forces, not to the springs: at rest the springs
+then carry the total normal load minus the water's, so the Coulomb cap follows the effective
+normal force (Terzaghi's effective stress).
 """
 
 from __future__ import annotations
@@ -39,6 +45,7 @@ import jax.numpy as jnp
 from ..types import Status, _pytree_dataclass
 from .broadphase import candidate_pairs, pairs_are_static
 from .fcp import fcp_pair
+from .joint_water import joint_water_load
 from .model import BlockConfig, BlockParams, BlockState, Motion, block_mass, world_planes, world_vertices
 from .rotation import safe_norm
 
@@ -194,11 +201,14 @@ def _remap(old: ContactHistory, pairs, mask, B):
     )
 
 
-def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, *, dt, return_info: bool = False):
+def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, *, dt, gravity=None,
+                   return_info: bool = False):
     """Contact forces and torques on every block at the current poses.
 
     Args:
       state, params, config: the blocks.  dt: s, the step the shear springs advance over.
+      gravity: [3] m/s^2, needed when ``config.joint_water`` (the joints' hydrostatic pressure,
+        ``joint_water``); ignored otherwise.
       return_info: also return a dict of per-pair/per-slot diagnostics.
     Returns:
       ``(force [B,3] N, torque [B,3] N m, history ContactHistory, status int32)`` -- forces ON each
@@ -271,6 +281,17 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     Fj = jnp.sum(F, 1)
     Tj = jnp.sum(jnp.cross(rj, F), 1)
     Ti = -jnp.sum(jnp.cross(ri, F), 1)
+    if config.joint_water:
+        if gravity is None:
+            raise ValueError("contact_forces: config.joint_water needs gravity=")
+        gvec = jnp.asarray(gravity, f)
+        t1, t2 = jax.vmap(_tangent_basis)(n)
+        Fw, fw, mw = jax.vmap(lambda *a: joint_water_load(
+            *a, level=params.joint_water_level, density=params.joint_water_density, gravity=gvec))(
+                pts, active, n, t1, t2)
+        Fj = Fj + Fw
+        Tj = Tj + jnp.cross(mw - fw[:, None] * state.x[j], n)
+        Ti = Ti - jnp.cross(mw - fw[:, None] * state.x[i], n)
     force = jnp.zeros((B, 3), f).at[j].add(Fj).at[i].add(-Fj)
     torque = jnp.zeros((B, 3), f).at[j].add(Tj).at[i].add(Ti)
 
@@ -283,5 +304,7 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
         info = dict(pairs=pairs, pair_mask=mask, normal=n, gap=fcp["gap"], fcp_changes=fcp["changes"],
                     points=pts, depth=depth, active=active, normal_force=fn, tangential_force=ft_c,
                     n_contacts=jnp.sum(active.astype(jnp.int32)))
+        if config.joint_water:
+            info["joint_water_force"] = Fw
         return force, torque, hist, status, info
     return force, torque, hist, status

@@ -65,7 +65,7 @@ def advance_blocks(state: BlockState, params: BlockParams, config: BlockConfig, 
       ``(state, status int32)``: status may hold CONTACT_OVERFLOW, BLOCK_UNSTABLE (dt above the
       Eq 8 limit for these params), BLOCK_PENETRATION and NON_FINITE.
     """
-    force, torque, hist, status = contact_forces(state, params, config, dt=dt)
+    force, torque, hist, status = contact_forces(state, params, config, dt=dt, gravity=gravity)
     state = with_history(state, hist)
     f = state.x.dtype
     gravity = jnp.asarray(gravity, f)

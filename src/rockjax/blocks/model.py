@@ -84,6 +84,8 @@ class BlockConfig:
       inside_tolerance: relative (to the block's bounding radius) tolerance of the
         point-in-block test that decides which vertices / crossings are contact points.
       penetration_limit: depth / min(bounding radius) above which BLOCK_PENETRATION is set.
+      joint_water: the contact patches carry the hydrostatic pressure of a still water level
+        (``BlockParams.joint_water_level``; module ``joint_water``). Off: nothing is traced.
     """
 
     n_blocks: int
@@ -105,6 +107,7 @@ class BlockConfig:
     edge_contacts: bool = True
     inside_tolerance: float = 1e-4
     penetration_limit: float = 0.1
+    joint_water: bool = False
 
     def __post_init__(self):
         if len(self.motion) != self.n_blocks:
@@ -158,6 +161,9 @@ class BlockParams:
         (``sqrt(k_s m_red)``) only while the point sticks.
       stroke: [] m, piston stroke S (PRESCRIBED blocks).
       period: [] s, piston period T (PRESCRIBED blocks).
+      joint_water_level: [] m, still water level whose hydrostatic pressure the joints carry
+        (height along -gravity; used when ``BlockConfig.joint_water``).
+      joint_water_density: [] kg/m^3, the joint water's density (``BlockConfig.joint_water``).
     """
 
     density: jax.Array
@@ -169,6 +175,8 @@ class BlockParams:
     damping_ratio: jax.Array
     stroke: jax.Array
     period: jax.Array
+    joint_water_level: jax.Array
+    joint_water_density: jax.Array
 
 
 @_pytree_dataclass
@@ -414,6 +422,9 @@ def make_blocks(
     edge_contacts: bool = True,
     inside_tolerance: float = 1e-4,
     penetration_limit: float = 0.1,
+    joint_water: bool = False,
+    joint_water_level: float = 0.0,
+    joint_water_density: float = 1000.0,
 ):
     """Build ``(BlockConfig, BlockParams, BlockState)`` from convex polyhedra, validating every input.
 
@@ -444,6 +455,9 @@ def make_blocks(
       grid_cell_size: m; default 1.5 x the median block size (Nezami et al. 2004).
       grid_cell_capacity: blocks per grid cell.
       edge_contacts, inside_tolerance, penetration_limit: see :class:`BlockConfig`.
+      joint_water: block faces pressed together carry the hydrostatic pressure of a still water
+        at ``joint_water_level`` (m, height along -gravity) of ``joint_water_density`` (kg/m^3,
+        > 0); see ``blocks.joint_water``.
 
     Returns:
       ``(config, params, state)``; state arrays in float32 (float64 under ``jax_enable_x64``).
@@ -539,6 +553,8 @@ def make_blocks(
         raise ValueError(f"pair_capacity must be >= 1, got {pair_capacity}")
     _scalar("inside_tolerance", inside_tolerance, lo=0.0, unit="(relative)")
     _scalar("penetration_limit", penetration_limit, lo=0.0, lo_open=True, unit="(relative)")
+    jw_level = _scalar("joint_water_level", joint_water_level, unit="m")
+    jw_rho = _scalar("joint_water_density", joint_water_density, lo=0.0, lo_open=True, unit="kg/m^3")
     if int(grid_cell_capacity) < 1:
         raise ValueError("grid_cell_capacity must be >= 1")
 
@@ -566,6 +582,7 @@ def make_blocks(
         edge_contacts=bool(edge_contacts),
         inside_tolerance=float(inside_tolerance),
         penetration_limit=float(penetration_limit),
+        joint_water=bool(joint_water),
     )
 
     f = float_dtype()
@@ -604,6 +621,8 @@ def make_blocks(
         damping_ratio=jnp.asarray(zeta, f),
         stroke=jnp.asarray(S, f),
         period=jnp.asarray(T, f),
+        joint_water_level=jnp.asarray(jw_level, f),
+        joint_water_density=jnp.asarray(jw_rho, f),
     )
     state = _initial_state(config, shape, pos, ori, vel, om)
     return config, params, state

@@ -115,7 +115,8 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
                   alpha: float = 0.02, nu: float = 1e-6, delta: float = 0.1, wall_viscosity: float = 1.0,
                   skin_factor: float = 0.6,
                   rebuild_every: int = 8, cfl: float = 0.25, scheme: Scheme = Scheme.WCSPH,
-                  velocities=None, block_kwargs: dict | None = None, meta: dict | None = None) -> Scene:
+                  velocities=None, joint_water: bool = False, block_kwargs: dict | None = None,
+                  meta: dict | None = None) -> Scene:
     """Assemble a scene of water (optional) and blocks from host data.
 
     Args:
@@ -125,10 +126,18 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         fluid_x / wall_x: [n, 3] water and fixed-wall particles (None: a blocks-only scene).
         still_level: initial free surface z [m] for hydrostatic densities.
         coupling: how the water and the moving blocks exchange forces.
+        joint_water: block faces pressed together (a block on a slope or a floor) carry the
+            hydrostatic pressure of water at ``still_level`` (``blocks.joint_water``): the water
+            the particles cannot put into a joint thinner than dx. Needs ``still_level``.
         block_kwargs: extra keywords for ``blocks.make_blocks`` (stiffness, damping, ...).
     """
     blocks = _blocks_api()
     B = len(polyhedra)
+    if joint_water:
+        if still_level is None:
+            raise ValueError(f"{name}: joint_water needs still_level (the water level whose pressure the joints carry)")
+        block_kwargs = dict(block_kwargs or {}, joint_water=True, joint_water_level=float(still_level),
+                            joint_water_density=1000.0)
     density = np.broadcast_to(np.asarray(block_density, float), (B,))
     bconfig, bparams, bstate = blocks.make_blocks(
         list(polyhedra), positions=np.asarray(positions, float), motion=tuple(motion), velocities=velocities,
@@ -226,7 +235,8 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
                   friction_angle_deg: float = 15.0, block_length: float = 0.4, block_width: float = 0.2,
                   water_depth: float = 0.4, flat_length: float = 1.0, far_slope_deg: float = 30.0,
                   flume_width: float = 0.4, start_distance: float = 0.1, coupling: Coupling = Coupling.PENALTY,
-                  h_factor: float = 1.3, c0: float | None = None, rebuild_every: int = 8) -> Scene:
+                  h_factor: float = 1.3, c0: float | None = None, rebuild_every: int = 8,
+                  joint_water: bool = True) -> Scene:
     """The seed's second example: a rigid wedge sliding down a 25 degree plane into water.
 
     The wedge has a horizontal top of ``block_length`` [m], a vertical front face and its
@@ -239,6 +249,9 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
         friction_angle_deg: wedge-slope friction angle. water_depth, flat_length, flume_width m.
         far_slope_deg: the beach on which run-up is measured. coupling: PENALTY (seed Eq 22) or
             BOUNDARY_PARTICLES.
+        joint_water: the wedge's face on the slope carries the hydrostatic pressure of the still
+            water (``blocks.joint_water``; without it the water presses the wedge into the slope
+            and friction stops it there, see tests/coupling/test_wedge_run.py).
     """
     dx = _positive("sliding_wedge: dx", dx)
     for nm, v in (("block_length", block_length), ("block_width", block_width), ("water_depth", water_depth),
@@ -317,7 +330,8 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
                          positions=[wedge.centroid_world, slope_pos, floor_pos], motion=motion,
                          block_density=[block_density, 2500.0, 2500.0], friction_angle_deg=friction_angle_deg,
                          fluid_x=water, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi, still_level=0.0,
-                         coupling=coupling, c0=c0, h_factor=h_factor, rebuild_every=rebuild_every, meta=meta)
+                         coupling=coupling, c0=c0, h_factor=h_factor, rebuild_every=rebuild_every,
+                         joint_water=joint_water, meta=meta)
 
 
 def _box_tank(*, dx, length, width, depth, height, layers):
@@ -368,9 +382,10 @@ def floating_box(*, dx: float = 0.02, box_size=(0.2, 0.2, 0.1), box_density: flo
 
 def block_drop(*, dx: float = 0.02, box_size=(0.1, 0.1, 0.1), box_density: float = 2500.0, drop_height: float = 0.2,
                tank_size=(0.5, 0.5), water_depth: float = 0.2, coupling: Coupling = Coupling.PENALTY,
-               h_factor: float = 1.3, c0: float | None = None) -> Scene:
+               h_factor: float = 1.3, c0: float | None = None, joint_water: bool = True) -> Scene:
     """A box released ``drop_height`` [m] (its bottom above the still water) into a tank; a
-    fixed floor block stops it at the bottom (z = 0)."""
+    fixed floor block stops it at the bottom (z = 0); with ``joint_water`` the face it rests on
+    carries the still water's hydrostatic pressure (``blocks.joint_water``)."""
     dx = _positive("block_drop: dx", dx)
     lx, ly, lz = (float(s) for s in box_size)
     L, W = (float(s) for s in tank_size)
@@ -391,7 +406,7 @@ def block_drop(*, dx: float = 0.02, box_size=(0.1, 0.1, 0.1), box_density: float
                          motion=(blocks.Motion.DYNAMIC, blocks.Motion.FIXED), block_density=[box_density, 2500.0],
                          friction_angle_deg=30.0, fluid_x=water, wall_x=walls, domain_lo=[-pad, -pad, -pad],
                          domain_hi=[L + pad, W + pad, height + water_depth], still_level=water_depth,
-                         coupling=coupling, c0=c0, h_factor=h_factor, meta=meta)
+                         coupling=coupling, c0=c0, h_factor=h_factor, joint_water=joint_water, meta=meta)
 
 
 def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float = 1.0, water_depth: float = 0.3,

@@ -71,7 +71,9 @@ Form (b): a general scene
     [materials]                        # block contacts (blocks.make_blocks)
     friction_angle_deg = 20.0          # [0, 90)
     cohesion = 0.0                     # N per contact point
-    # normal_stiffness, shear_stiffness [N/m], penalty_modulus [Pa], damping_ratio [-]
+    # normal_stiffness, shear_stiffness [N/m], penalty_modulus [Pa], damping_ratio [-],
+    # joint_water (default true with water: faces pressed together carry the still water's
+    # hydrostatic pressure, blocks.joint_water)
 
     [sph]                              # the water (needed with [[water]])
     dx = 0.02                          # particle spacing, m
@@ -310,7 +312,7 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
                   "cohesion": _num(default=0.0, unit="N", **_NONNEG),
                   "normal_stiffness": _num(unit="N/m", **_POS), "shear_stiffness": _num(unit="N/m", **_POS),
                   "penalty_modulus": _num(default=1e9, unit="Pa", **_POS),
-                  "damping_ratio": _num(default=0.2, **_NONNEG)},
+                  "damping_ratio": _num(default=0.2, **_NONNEG), "joint_water": _Key("bool", True)},
     "gauge": {"name": _Key("str"), "xy": _Key("vec2", _REQUIRED, "m"), "bottom_z": _num(unit="m")},
     "runup": {"point": _Key("vec3", _REQUIRED, "m"), "normal": _Key("vec3", _REQUIRED), "x_min": _num(unit="m")},
     "output": {"frame_dt": _num(unit="s", **_POS), "out": _Key("str")},
@@ -962,7 +964,8 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
                               motion=motion, block_density=dens, friction_angle_deg=mat["friction_angle_deg"],
                               fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,
                               periodic=tuple(periodic), still_level=still, coupling=Coupling(cpl["method"]), c0=c0,
-                              scheme=scheme, velocities=vel, block_kwargs=block_kwargs, meta=meta, **common)
+                              scheme=scheme, velocities=vel, joint_water=mat["joint_water"], block_kwargs=block_kwargs,
+                              meta=meta, **common)
     except ValueError as exc:
         raise ValueError(f"{ctx.source}: building the scene failed: {exc}") from exc
     if scene.params.coupling is not None and any(cpl[k] is not None for k in ("stiffness", "damping",
