@@ -30,8 +30,9 @@ and third were fixed on 2026-11-25, below):
 Fixed 2026-11-25 by the joint water pressure (``blocks.joint_water``, on by default in
 ``sliding_wedge``): the face on the slope carries the still water's hydrostatic pressure, as real
 joints do (the particles cannot enter a joint thinner than dx). Measured (dx 0.04, 2 s): both
-couplings slide on at ~0.9-1.0 m/s and stop against the floor, centroid z = -0.279 m (penalty,
-at ~1.7 s) and -0.288 m (boundary particles, ~1.45 s); run-up 0.073 m with either. Water inside
+couplings slide on (~0.6-0.85 m/s penalty, ~1.0 m/s boundary particles) and stop against the
+floor, centroid z = -0.281 m (penalty, at ~1.7 s) and -0.292 m (boundary particles, ~1.5 s);
+run-up 0.073 m with either. Water inside
 the boundary-particle wedge: worst 0.452 dx (t = 0.97 s, against the slope face near the
 front-bottom edge; 0.376 dx without joint water, the wedge being slower), still a strict xfail.
 """

@@ -32,7 +32,9 @@ Contact law per point (forces on j; i gets the opposite, torques about each cent
 
 With ``BlockConfig.joint_water`` the pair's contact patch (the polygon of its active points) also
 carries the hydrostatic pressure of a still water level, pushing the two blocks apart
-(``joint_water``).  It is added to the blocks' forces, not to the springs: at rest the springs
+(``joint_water``).  With a ``joint_aperture`` a > 0 the patch is that of the near contact (both
+blocks grown by a/2) and its load fades out smoothly (smoothstep) as the common-plane gap opens
+from 0 to a, so that a resting block's patch does not flicker with its micro-rocking.  It is added to the blocks' forces, not to the springs: at rest the springs
 then carry the total normal load minus the water's, so the Coulomb cap follows the effective
 normal force (Terzaghi's effective stress).
 """
@@ -94,8 +96,11 @@ def _tangent_basis(n):
 
 
 def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj, rj, n, gap, *,
-                  tol_rel: float, edge_contacts: bool):
+                  tol_rel: float, edge_contacts: bool, slack: float = 0.0):
     """Contact points of one pair for the common-plane normal n.
+
+    ``slack`` (m) > 0 gives the points of the pair's *near* contact instead: both blocks grown by
+    ``slack`` (points within that distance of the other block count; the joint-water patch).
 
     Args:
       X*: [V,3] world vertices; m*: [V]; N*: [F,3] world normals; D*: [F] offsets; fm*: [F];
@@ -105,6 +110,8 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
       ``(points [S,3] m, depth [S] m, active [S] bool)`` with S = 2 V (+ nE^2 with edge contacts) + 1.
     """
     tol_i, tol_j = tol_rel * ri, tol_rel * rj
+    if slack:
+        Di, Dj = Di + slack, Dj + slack
     # vertices of j inside i (depth: distance to leave i along +n), vertices of i inside j (along -n)
     dj = _exit_distance(Xj, Ni, Di, fmi, n)
     aj = mj & _inside(Xj, Ni, Di, fmi, tol_i) & (dj > 0)
@@ -140,7 +147,7 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
         p = a0[:, None, :] + s[..., None] * (a1 - a0)[:, None, :]
         q = b0[None, :, :] + u[..., None] * (b1 - b0)[None, :, :]
         de = (p - q) @ n
-        ok = ok & (de > 0) & _inside(p, Nj, Dj, fmj, tol_j) & _inside(q, Ni, Di, fmi, tol_i)
+        ok = ok & (de > -2.0 * slack) & _inside(p, Nj, Dj, fmj, tol_j) & _inside(q, Ni, Di, fmi, tol_i)
         pts.append((0.5 * (p + q)).reshape(-1, 3))
         dep.append(de.reshape(-1))
         act.append(ok.reshape(-1))
@@ -286,9 +293,23 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
             raise ValueError("contact_forces: config.joint_water needs gravity=")
         gvec = jnp.asarray(gravity, f)
         t1, t2 = jax.vmap(_tangent_basis)(n)
+        ap = config.joint_aperture
+        if ap > 0:  # the patch of the near contact, faded out over the aperture
+            wpts, _, wact = jax.vmap(
+                lambda *a: pair_contacts(*a, tol_rel=config.inside_tolerance, edge_contacts=config.edge_contacts,
+                                         slack=0.5 * ap))(
+                Xw[i], sh.vertex_mask[i], Nw[i], Dw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i], sh.radius[i],
+                Xw[j], sh.vertex_mask[j], Nw[j], Dw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j], sh.radius[j],
+                n, fcp["gap"])
+            wact = wact & mask[:, None]
+            s_gap = jnp.clip(fcp["gap"] / ap, 0.0, 1.0)
+            fade = 1.0 - s_gap * s_gap * (3.0 - 2.0 * s_gap)
+        else:
+            wpts, wact, fade = pts, active, jnp.ones_like(fcp["gap"])
         Fw, fw, mw = jax.vmap(lambda *a: joint_water_load(
             *a, level=params.joint_water_level, density=params.joint_water_density, gravity=gvec))(
-                pts, active, n, t1, t2)
+                wpts, wact, n, t1, t2)
+        Fw, fw, mw = Fw * fade[:, None], fw * fade, mw * fade[:, None]
         Fj = Fj + Fw
         Tj = Tj + jnp.cross(mw - fw[:, None] * state.x[j], n)
         Ti = Ti - jnp.cross(mw - fw[:, None] * state.x[i], n)
@@ -305,6 +326,6 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
                     points=pts, depth=depth, active=active, normal_force=fn, tangential_force=ft_c,
                     n_contacts=jnp.sum(active.astype(jnp.int32)))
         if config.joint_water:
-            info["joint_water_force"] = Fw
+            info.update(joint_water_force=Fw, joint_points=wpts, joint_active=wact)
         return force, torque, hist, status, info
     return force, torque, hist, status

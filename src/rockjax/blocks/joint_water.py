@@ -34,48 +34,50 @@ __all__ = ["joint_water_load", "patch_triangles", "submerged_parts"]
 
 def patch_triangles(points, active, n, t1, t2):
     """The contact patch (the convex hull of the active points on the common plane) as a fan of
-    triangles from the points' mean.
+    triangles from the points' mean, in angular order.
 
-    Gift wrapping for all points at once, O(S^2): a point a is a hull vertex iff no point lies
-    strictly right of the line from a to its successor, the point seen from a at the smallest
-    angle from the direction to the mean (the nearest of several collinear ones, so points on a
-    hull edge chain along it); interior points, duplicates and padding carry no triangle.
+    Interior points are dropped first: a point is inside the hull iff the directions from it to
+    the other points leave no angular gap of pi or more (a tolerance of 1e-4 rad keeps points on a
+    hull edge, which add nothing to the fan; the test is free of the sign-of-rounding trouble of
+    orientation tests, which fused multiply-adds under jit decide either way).  Duplicates and
+    padding carry no triangle.
 
     Args:
       points: [S,3] m contact points; active: [S] bool; n: [3] unit common-plane normal;
       t1, t2: [3] unit tangents with ``t1 x t2 = n``.
     Returns:
       ``(c [3], a [S,3], b [S,3], area [S])``: triangle k is (c, a_k, b_k), its area on the
-      common plane (m^2; 0 where k is no hull vertex).
+      common plane (m^2; 0 for dropped points and padding).
     """
     f = points.dtype
     S = points.shape[0]
     w = active.astype(f)
-    cnt = jnp.sum(w)
-    c = jnp.sum(points * w[:, None], 0) / jnp.maximum(cnt, 1.0)
+    c = jnp.sum(points * w[:, None], 0) / jnp.maximum(jnp.sum(w), 1.0)
     u = jnp.stack([(points - c) @ t1, (points - c) @ t2], -1)  # [S,2] on the plane, about c
-    scale = jnp.max(jnp.where(active, jnp.abs(u).sum(-1), 0.0)) + 1e-30
-    tol = 1e-9 * scale
-    d = u[None, :, :] - u[:, None, :]  # [a, p, 2]: p - a
-    dist = jnp.sqrt(jnp.sum(d * d, -1) + tol * tol)
+    scale = jnp.max(jnp.where(active, jnp.abs(u).sum(-1), 0.0))
+    eps = 1e-6 * scale
+    d = u[None, :, :] - u[:, None, :]  # [p, q, 2]: q - p
+    near = jnp.sum(d * d, -1) <= eps * eps
     idx = jnp.arange(S)
-    # a duplicate of an earlier active point is dropped
-    dup = jnp.any((dist < 2 * tol) & active[None, :] & (idx[None, :] < idx[:, None]), 1)
-    keep = active & ~dup
-    other = keep[None, :] & (dist > 2 * tol)  # [a, p]
-    ref = -u  # from a towards the mean
-    cr = ref[:, None, 0] * d[..., 1] - ref[:, None, 1] * d[..., 0]
-    dt = ref[:, None, 0] * d[..., 0] + ref[:, None, 1] * d[..., 1]
-    ang = jnp.where(other, jnp.arctan2(cr, dt), 10.0)
-    amin = jnp.min(ang, 1, keepdims=True)
-    cand = other & (ang <= amin + 1e-9)
-    succ = jnp.argmin(jnp.where(cand, dist, jnp.inf), 1)
-    e = jnp.take_along_axis(d, succ[:, None, None], 1)[:, 0]  # [S,2] a -> successor
-    side = e[:, None, 0] * d[..., 1] - e[:, None, 1] * d[..., 0]  # > 0: left of a -> successor
-    hull = keep & jnp.all(jnp.where(other, side >= -tol * scale, True), 1) & (jnp.sum(keep) >= 3)
-    Q = points[succ]
-    area = 0.5 * (jnp.cross(points - c, Q - c) @ n)
-    return c, points, Q, jnp.where(hull, area, 0.0)
+    keep = active & ~jnp.any(near & active[None, :] & (idx[None, :] < idx[:, None]), 1)  # no duplicates
+    other = keep[None, :] & ~near
+    ang = jnp.where(other, jnp.arctan2(d[..., 1], d[..., 0]), jnp.inf)
+    srt = jnp.sort(ang, 1)
+    m = jnp.sum(other, 1)
+    k = jnp.arange(S)[None, :]
+    gaps = jnp.where(k + 1 < m[:, None], jnp.diff(srt, axis=1, append=srt[:, :1]), 0.0)
+    wrap = srt[:, 0] + 2.0 * jnp.pi - jnp.take_along_axis(srt, jnp.maximum(m - 1, 0)[:, None], 1)[:, 0]
+    max_gap = jnp.maximum(jnp.max(gaps, 1), jnp.where(m > 0, wrap, 0.0))
+    hull = keep & ((m < 2) | (max_gap >= jnp.pi - 1e-4))
+    # the star polygon of the hull points about c, in angular order
+    key = jnp.where(hull, jnp.arctan2(u[:, 1], u[:, 0]), 10.0)
+    order = jnp.argsort(key)
+    P = points[order]
+    n_h = jnp.sum(hull.astype(jnp.int32))
+    nxt = jnp.where(idx + 1 < n_h, idx + 1, 0)
+    Q = P[nxt]
+    area = 0.5 * (jnp.cross(P - c, Q - c) @ n)
+    return c, P, Q, jnp.where((idx < n_h) & (n_h >= 3), area, 0.0)
 
 
 def submerged_parts(P, v):

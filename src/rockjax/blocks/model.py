@@ -86,6 +86,8 @@ class BlockConfig:
       penetration_limit: depth / min(bounding radius) above which BLOCK_PENETRATION is set.
       joint_water: the contact patches carry the hydrostatic pressure of a still water level
         (``BlockParams.joint_water_level``; module ``joint_water``). Off: nothing is traced.
+      joint_aperture: m, faces closer than this form a joint (its load fades out as the gap opens
+        from 0 to this); 0: only the penetrating contact's patch, with no fade.
     """
 
     n_blocks: int
@@ -108,6 +110,7 @@ class BlockConfig:
     inside_tolerance: float = 1e-4
     penetration_limit: float = 0.1
     joint_water: bool = False
+    joint_aperture: float = 0.0
 
     def __post_init__(self):
         if len(self.motion) != self.n_blocks:
@@ -425,6 +428,7 @@ def make_blocks(
     joint_water: bool = False,
     joint_water_level: float = 0.0,
     joint_water_density: float = 1000.0,
+    joint_aperture: float = 0.0,
 ):
     """Build ``(BlockConfig, BlockParams, BlockState)`` from convex polyhedra, validating every input.
 
@@ -457,7 +461,8 @@ def make_blocks(
       edge_contacts, inside_tolerance, penetration_limit: see :class:`BlockConfig`.
       joint_water: block faces pressed together carry the hydrostatic pressure of a still water
         at ``joint_water_level`` (m, height along -gravity) of ``joint_water_density`` (kg/m^3,
-        > 0); see ``blocks.joint_water``.
+        > 0); see ``blocks.joint_water``.  joint_aperture: m (>= 0), see :class:`BlockConfig`;
+        the broad-phase margin is raised to it.
 
     Returns:
       ``(config, params, state)``; state arrays in float32 (float64 under ``jax_enable_x64``).
@@ -538,6 +543,9 @@ def make_blocks(
         raise ValueError(f"fcp_iterations must be a non-negative integer, got {fcp_iterations}")
     margin = 0.05 * float(radius.min()) if aabb_margin is None else _scalar("aabb_margin", aabb_margin, lo=0.0,
                                                                              unit="m")
+    jw_ap = _scalar("joint_aperture", joint_aperture, lo=0.0, unit="m")
+    if joint_water:
+        margin = max(margin, jw_ap)  # pairs within the aperture must be candidates
     cell = 1.5 * float(np.median(2 * radius)) if grid_cell_size is None else _scalar(
         "grid_cell_size", grid_cell_size, lo=0.0, lo_open=True, unit="m")
     # a block whose AABB (<= 2 r + 2 margin per axis) can exceed one cell is "large"
@@ -583,6 +591,7 @@ def make_blocks(
         inside_tolerance=float(inside_tolerance),
         penetration_limit=float(penetration_limit),
         joint_water=bool(joint_water),
+        joint_aperture=float(jw_ap),
     )
 
     f = float_dtype()

@@ -128,7 +128,9 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         coupling: how the water and the moving blocks exchange forces.
         joint_water: block faces pressed together (a block on a slope or a floor) carry the
             hydrostatic pressure of water at ``still_level`` (``blocks.joint_water``): the water
-            the particles cannot put into a joint thinner than dx. Needs ``still_level``.
+            the particles cannot put into a joint thinner than dx. Needs ``still_level``. The
+            joint aperture is dx/2 (faces closer than that carry it, fading out as they part);
+            ``block_kwargs`` may override ``joint_water_level`` / ``joint_aperture``.
         block_kwargs: extra keywords for ``blocks.make_blocks`` (stiffness, damping, ...).
     """
     blocks = _blocks_api()
@@ -136,8 +138,10 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     if joint_water:
         if still_level is None:
             raise ValueError(f"{name}: joint_water needs still_level (the water level whose pressure the joints carry)")
-        block_kwargs = dict(block_kwargs or {}, joint_water=True, joint_water_level=float(still_level),
-                            joint_water_density=1000.0)
+        jw = dict(joint_water=True, joint_water_level=float(still_level), joint_water_density=1000.0)
+        if dx is not None:  # no particle fits in a gap below ~dx: a joint up to dx/2, faded out
+            jw["joint_aperture"] = 0.5 * float(dx)
+        block_kwargs = {**jw, **(block_kwargs or {})}  # the caller's keywords win
     density = np.broadcast_to(np.asarray(block_density, float), (B,))
     bconfig, bparams, bstate = blocks.make_blocks(
         list(polyhedra), positions=np.asarray(positions, float), motion=tuple(motion), velocities=velocities,
@@ -385,7 +389,8 @@ def block_drop(*, dx: float = 0.02, box_size=(0.1, 0.1, 0.1), box_density: float
                h_factor: float = 1.3, c0: float | None = None, joint_water: bool = True) -> Scene:
     """A box released ``drop_height`` [m] (its bottom above the still water) into a tank; a
     fixed floor block stops it at the bottom (z = 0); with ``joint_water`` the face it rests on
-    carries the still water's hydrostatic pressure (``blocks.joint_water``)."""
+    carries the hydrostatic pressure of the water level the tank has with the box under water
+    (``blocks.joint_water``; ``meta["joint_water_level"]``)."""
     dx = _positive("block_drop: dx", dx)
     lx, ly, lz = (float(s) for s in box_size)
     L, W = (float(s) for s in tank_size)
@@ -400,13 +405,16 @@ def block_drop(*, dx: float = 0.02, box_size=(0.1, 0.1, 0.1), box_density: float
     pad = layers * dx
     v_impact = math.sqrt(2 * GRAVITY * drop_height)
     c0 = 10.0 * max(math.sqrt(2 * GRAVITY * water_depth), v_impact) if c0 is None else c0
+    # the joint's water level: the still level raised by the box once it is under water
+    level = water_depth + min(lz, water_depth) * lx * ly / (L * W)
     meta = dict(box_size=[lx, ly, lz], box_density=box_density, water_depth=water_depth, still_level=water_depth,
-                drop_height=drop_height, tank_size=[L, W])
+                drop_height=drop_height, tank_size=[L, W], joint_water_level=level)
     return coupled_scene(name="block_drop", dx=dx, polyhedra=[box, floor], positions=[pos, floor_pos],
                          motion=(blocks.Motion.DYNAMIC, blocks.Motion.FIXED), block_density=[box_density, 2500.0],
                          friction_angle_deg=30.0, fluid_x=water, wall_x=walls, domain_lo=[-pad, -pad, -pad],
                          domain_hi=[L + pad, W + pad, height + water_depth], still_level=water_depth,
-                         coupling=coupling, c0=c0, h_factor=h_factor, joint_water=joint_water, meta=meta)
+                         coupling=coupling, c0=c0, h_factor=h_factor, joint_water=joint_water,
+                         block_kwargs=dict(joint_water_level=level) if joint_water else None, meta=meta)
 
 
 def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float = 1.0, water_depth: float = 0.3,
