@@ -62,7 +62,7 @@ def bench(dx: float, coupling: str, reps: int) -> dict:
     per = lambda t: 1e3 * t / k  # ms per step
     t_coup = max(t_full - t_fluid - t_blocks, 0.0)
     return {"bench": "coupled_step", "dx": dx, "coupling": coupling, "n_fluid": c.n_fluid, "n_wall": c.n_wall,
-            "n_blocks": c.blocks.n_blocks, "ms_per_step_full": per(t_full), "ms_per_step_fluid": per(t_fluid),
+            "n_blocks": c.blocks.n_blocks, "joint_water": c.blocks.joint_water, "ms_per_step_full": per(t_full), "ms_per_step_fluid": per(t_fluid),
             "ms_per_step_blocks": per(t_blocks), "ms_per_step_coupling": per(t_coup),
             "share_blocks_plus_coupling": (t_blocks + t_coup) / t_full,
             "fluid_particle_steps_per_s": c.n_fluid * k / t_full, "compile_plus_first_s": compile_s,
