@@ -471,10 +471,13 @@ def sec_wedge(doc: Doc):
     rows = []
     for r in recs:
         mg = r.get("max_gauge") or []
-        rows.append([r.get("coupling"), r.get("dx"), r.get("n_fluid"), r.get("steps"), r.get("impact_speed"),
-                     ", ".join(fmt(v) for v in mg), r.get("max_smooth_runup"), r.get("wall_s"), r.get("load")])
-    doc.p(table(["coupling", "dx [m]", "n_fluid", "steps", "impact speed [m/s]", "max gauge elevations [m]",
-                 "max smooth run-up [m]", "wall s", "load"], rows))
+        fx = r.get("final_wedge_x") or [None, None, None]
+        rows.append([r.get("coupling"), r.get("joint_water", False), r.get("dx"), r.get("n_fluid"), r.get("steps"),
+                     r.get("impact_speed"), ", ".join(fmt(v) for v in mg), r.get("max_smooth_runup"), fx[0], fx[2],
+                     r.get("wall_s"), r.get("load")])
+    doc.p(table(["coupling", "joint water", "dx [m]", "n_fluid", "steps", "impact speed [m/s]",
+                 "max gauge elevations [m]", "max smooth run-up [m]", "wedge x at end [m]", "wedge z at end [m]",
+                 "wall s", "load"], rows))
 
 
 def sec_wedge_inside(doc: Doc):

@@ -39,7 +39,7 @@ def run(dx: float, t_end: float, coupling: str, flat_length: float = 0.5) -> dic
             "impact_speed": None if v_imp is None else float(np.linalg.norm(v_imp)),
             "max_gauge": np.max(obs["gauges"], axis=0).tolist(), "min_gauge": np.min(obs["gauges"], axis=0).tolist(),
             "max_runup": float(np.max(obs["runup"])), "max_smooth_runup": float(np.max(obs["smooth_runup"])),
-            "final_wedge_x": res.frames["block_x"][-1, 0].tolist(),
+            "final_wedge_x": res.frames["block_x"][-1, 0].tolist(), "joint_water": scene.config.blocks.joint_water,
             "times": res.times.tolist(), "gauges": obs["gauges"].tolist(), "runup": obs["runup"].tolist(),
             "load": os.getloadavg()[0]}
 

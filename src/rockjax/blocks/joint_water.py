@@ -32,15 +32,32 @@ import jax.numpy as jnp
 __all__ = ["joint_water_load", "patch_triangles", "submerged_parts"]
 
 
+def _pseudo_angle(x, y):
+    """A monotone stand-in for ``atan2(y, x)``, in (-2, 2] (no transcendental function)."""
+    p = y / jnp.where(jnp.abs(x) + jnp.abs(y) > 0, jnp.abs(x) + jnp.abs(y), 1.0)
+    return jnp.where(x >= 0, p, jnp.where(y >= 0, 2.0 - p, -2.0 - p))
+
+
+def _pseudo_direction(pa):
+    """The direction (x, y), |x| + |y| = 1, of a pseudo-angle (inverse of :func:`_pseudo_angle`)."""
+    p = jnp.where(pa > 1.0, 2.0 - pa, jnp.where(pa < -1.0, -2.0 - pa, pa))
+    x = 1.0 - jnp.abs(p)
+    return jnp.where(jnp.abs(pa) > 1.0, -x, x), p
+
+
 def patch_triangles(points, active, n, t1, t2):
     """The contact patch (the convex hull of the active points on the common plane) as a fan of
     triangles from the points' mean, in angular order.
 
-    Interior points are dropped first: a point is inside the hull iff the directions from it to
-    the other points leave no angular gap of pi or more (a tolerance of 1e-4 rad keeps points on a
-    hull edge, which add nothing to the fan; the test is free of the sign-of-rounding trouble of
-    orientation tests, which fused multiply-adds under jit decide either way).  Duplicates and
-    padding carry no triangle.
+    Interior points are dropped first.  Seen from a hull vertex p, the directions to all other
+    points lie within an angle of at most pi that contains the direction to their mean c; seen
+    from an interior point they span more than pi.  So, with the extreme directions d_lo, d_hi
+    (measured from c - p; found as the least and greatest pseudo-angle, no atan2, no arg-reduction),
+    p is kept iff ``d_lo x d_hi >= 0`` (a relative tolerance of 1e-5
+    keeps points on a hull edge, which add nothing to the fan).  O(S^2) arithmetic, no sort; the
+    first version (a per-point orientation test against its successor) lost corners under jit,
+    where fused multiply-adds round ``e x e`` to either sign.  Duplicates and padding carry no
+    triangle.
 
     Args:
       points: [S,3] m contact points; active: [S] bool; n: [3] unit common-plane normal;
@@ -56,21 +73,24 @@ def patch_triangles(points, active, n, t1, t2):
     u = jnp.stack([(points - c) @ t1, (points - c) @ t2], -1)  # [S,2] on the plane, about c
     scale = jnp.max(jnp.where(active, jnp.abs(u).sum(-1), 0.0))
     eps = 1e-6 * scale
-    d = u[None, :, :] - u[:, None, :]  # [p, q, 2]: q - p
-    near = jnp.sum(d * d, -1) <= eps * eps
     idx = jnp.arange(S)
+    dx_ = u[None, :, 0] - u[:, None, 0]  # [p, q]: q - p
+    dy_ = u[None, :, 1] - u[:, None, 1]
+    near = dx_ * dx_ + dy_ * dy_ <= eps * eps
     keep = active & ~jnp.any(near & active[None, :] & (idx[None, :] < idx[:, None]), 1)  # no duplicates
     other = keep[None, :] & ~near
-    ang = jnp.where(other, jnp.arctan2(d[..., 1], d[..., 0]), jnp.inf)
-    srt = jnp.sort(ang, 1)
-    m = jnp.sum(other, 1)
-    k = jnp.arange(S)[None, :]
-    gaps = jnp.where(k + 1 < m[:, None], jnp.diff(srt, axis=1, append=srt[:, :1]), 0.0)
-    wrap = srt[:, 0] + 2.0 * jnp.pi - jnp.take_along_axis(srt, jnp.maximum(m - 1, 0)[:, None], 1)[:, 0]
-    max_gap = jnp.maximum(jnp.max(gaps, 1), jnp.where(m > 0, wrap, 0.0))
-    hull = keep & ((m < 2) | (max_gap >= jnp.pi - 1e-4))
+    rx, ry = -u[:, 0:1], -u[:, 1:2]  # from p towards c
+    dot = rx * dx_ + ry * dy_
+    crs = rx * dy_ - ry * dx_
+    pa = _pseudo_angle(dot, crs)
+    lx, ly = _pseudo_direction(jnp.min(jnp.where(other, pa, 9.0), 1))
+    hx, hy = _pseudo_direction(jnp.max(jnp.where(other, pa, -9.0), 1))
+    opening = lx * hy - ly * hx  # L1-unit directions in p's frame (r, r_perp): same orientation
+    tol = 1e-5
+    away = jnp.sum(u * u, -1) > eps * eps  # p is not the mean itself
+    hull = keep & ((jnp.sum(other, 1) < 2) | (away & (opening >= -tol)))
     # the star polygon of the hull points about c, in angular order
-    key = jnp.where(hull, jnp.arctan2(u[:, 1], u[:, 0]), 10.0)
+    key = jnp.where(hull, _pseudo_angle(u[:, 0], u[:, 1]), 10.0)
     order = jnp.argsort(key)
     P = points[order]
     n_h = jnp.sum(hull.astype(jnp.int32))
