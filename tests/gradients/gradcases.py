@@ -84,11 +84,11 @@ def incline_obs0(scene):
     return np.array([x @ t_dir, x @ n_dir])
 
 
-def central_fd(f, params, path, rel_step, *, get_leaf, set_leaf):
+def central_fd(f, params, path, rel_step, *, get_leaf, set_leaf, abs_step=1e-4):
     """Central finite difference of the scalar ``f(params)`` w.r.t. the leaf at ``path``, with
-    step ``rel_step * |value|``."""
+    step ``rel_step * |value|``, or ``abs_step`` where the value is 0 (a water level at z = 0)."""
     x0 = float(get_leaf(params, path))
-    h = rel_step * abs(x0)
+    h = rel_step * abs(x0) if x0 != 0.0 else abs_step
     fp = float(f(set_leaf(params, path, x0 + h)))
     fm = float(f(set_leaf(params, path, x0 - h)))
     return (fp - fm) / (2 * h)

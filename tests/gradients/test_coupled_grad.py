@@ -3,7 +3,9 @@
 Scene (``gradcases.tiny_wedge``): a 0.2 m wedge sliding down a 40 degree slope into 0.2 m of
 water at dx = 0.05 m (408 fluid, 4390 wall particles; seed Eq 22 penalty coupling, WCSPH),
 248 steps (0.19 s). Observables: the wedge's down-slope coordinate at the end, and the
-free-surface elevation at a gauge 0.15 m beyond the shoreline; gradients w.r.t. the wedge density and the wedge-slope friction angle.
+free-surface elevation at a gauge 0.15 m beyond the shoreline; gradients w.r.t. the wedge density, the wedge-slope friction angle and
+(since 2026-11-25, the scene's joint water being on) the joint water level, whose pressure acts on
+the wet part of the wedge's face on the slope as it enters the water.
 
 Why the horizon is not chaotic: 0.19 s covers the entry of the wedge (it moves ~8 cm, at
 < 1 m/s) and the first outgoing wave; there is no breaking, no impact with the floor, no
@@ -30,7 +32,7 @@ pytestmark = pytest.mark.slow
 
 REL_TOL = 0.01
 FD_STEP = 1e-4
-FIELDS = ["blocks.density[0]", "blocks.friction_angle"]
+FIELDS = ["blocks.density[0]", "blocks.friction_angle", "blocks.joint_water_level"]
 
 
 @pytest.fixture(scope="module")
