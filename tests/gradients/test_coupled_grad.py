@@ -12,10 +12,12 @@ Why the horizon is not chaotic: 0.19 s covers the entry of the wedge (it moves ~
 stick/slip switching (tan 15 < tan 40); neighbour lists are under stop_gradient with a C2
 compact kernel, so list changes are smooth.
 
-Tolerance 1 % relative; slow (704 s for both cases on the shared 2-core machine, most of it the
-compile). Measured (f64, FD step 1e-4 relative): wedge position w.r.t. density 2.4e-8 (AD
-5.005e-7 m per kg/m^3), w.r.t. friction angle 6.2e-8 (AD -0.1362 m/rad); gauge elevation
-w.r.t. density 1.3e-7 (AD 3.08e-8 m per kg/m^3), w.r.t. friction angle 3.8e-5 (AD -0.0111 m/rad).
+Tolerance 1 % relative; slow (122 s for both cases on 2 cores, 2026-11-25, most of it the
+compile). Measured 2026-11-25 with joint water (f64, FD step 1e-4 relative, 1e-4 m for the level
+at 0): wedge position w.r.t. density 2.6e-8 (AD 4.504e-7 m per kg/m^3), friction angle 6.5e-9
+(AD -0.1364 m/rad), joint water level 8.0e-5 (AD 0.01361 m/m); gauge elevation w.r.t. density
+1.5e-7 (AD 2.97e-8 m per kg/m^3), friction angle 5.3e-7 (AD -0.01142 m/rad), joint water level
+7.1e-5 (AD 1.26e-3 m/m).
 """
 
 from __future__ import annotations
