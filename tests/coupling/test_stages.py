@@ -50,3 +50,21 @@ def test_coupled_scene_traces_both(monkeypatch):
     step = rj.make_step(scene.config)
     jax.make_jaxpr(step)(scene.state, scene.params)
     assert called, "the coupled scene must trace the block stage"
+
+
+def test_joint_water_traced_only_when_on(monkeypatch):
+    """``BlockConfig.joint_water`` off (block_on_incline, no water): the joint-water code is never
+    traced; on (block_drop's default): it is."""
+    from rockjax.blocks import contact
+
+    scene = rj.scenes.block_on_incline(angle_deg=20.0, friction_angle_deg=30.0)
+    assert not scene.config.blocks.joint_water
+    monkeypatch.setattr(contact, "joint_water_load", _boom)
+    jax.make_jaxpr(rj.make_step(scene.config))(scene.state, scene.params)
+    wet = rj.scenes.block_drop(dx=0.05, box_size=(0.1, 0.1, 0.1), tank_size=(0.3, 0.3), water_depth=0.15)
+    assert wet.config.blocks.joint_water
+    try:
+        jax.make_jaxpr(rj.make_step(wet.config))(wet.state, wet.params)
+    except AssertionError:
+        return
+    raise AssertionError("block_drop (joint water on) did not trace the joint-water code")

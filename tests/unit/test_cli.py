@@ -72,7 +72,7 @@ def test_dry_run_of_a_scene_file(tmp_path, capsys):
     info = _json(capsys.readouterr().out)
     # 8 x 4 x 4 lattice cells below z = 0.2 in the 0.4 x 0.2 tank; the block is above the water
     assert info["scene"] == "tiny" and info["fluid"] == 8 * 4 * 4 and info["blocks"] == 1
-    assert info["stages"] == "sph-wcsph,blocks,coupling-penalty"
+    assert info["stages"] == "sph-wcsph,blocks,joint-water,coupling-penalty"  # [materials] joint_water: default
     assert info["t_end_s"] == 0.5 and info["frame_dt_s"] == 0.05 and info["out"] == "tiny.h5"
     assert info["steps"] * info["dt_s"] == pytest.approx(0.5, rel=1e-3)  # dt_s is printed to 4 digits
     # command-line flags win over the file
@@ -80,7 +80,7 @@ def test_dry_run_of_a_scene_file(tmp_path, capsys):
                  "boundary_particles"]) == 0
     info2 = _json(capsys.readouterr().out)
     assert info2["t_end_s"] == 0.1 and info2["out"] == "x.h5"
-    assert info2["stages"] == "sph-wcsph,blocks,coupling-boundary_particles"
+    assert info2["stages"] == "sph-wcsph,blocks,joint-water,coupling-boundary_particles"
     assert info2["wall"] > info["wall"]  # boundary particles on the block
 
 
