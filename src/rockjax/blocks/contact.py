@@ -34,9 +34,10 @@ With ``BlockConfig.joint_water`` the pair's contact patch (the polygon of its ac
 carries the hydrostatic pressure of a still water level, pushing the two blocks apart
 (``joint_water``).  With a ``joint_aperture`` a > 0 the patch is that of the near contact (both
 blocks grown by a/2) and its load fades out smoothly (smoothstep) as the common-plane gap opens
-from 0 to a, so that a resting block's patch does not flicker with its micro-rocking.  It is added to the blocks' forces, not to the springs: at rest the springs
-then carry the total normal load minus the water's, so the Coulomb cap follows the effective
-normal force (Terzaghi's effective stress).
+from 0 to a, so that a resting block's patch does not flicker with its micro-rocking.  It is
+added to the blocks' forces, not to the springs: at rest the springs then carry the total normal
+load minus the water's, so the Coulomb cap follows the effective normal force (Terzaghi's
+effective stress).
 """
 
 from __future__ import annotations
@@ -240,13 +241,17 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
         state.x[i], state.x[j], hist.plane, hist.plane_valid,
     )
     n = fcp["normal"]
-    pts, depth, active = jax.vmap(
-        lambda *a: pair_contacts(*a, tol_rel=config.inside_tolerance, edge_contacts=config.edge_contacts)
-    )(
+    pair_geometry = (
         Xw[i], sh.vertex_mask[i], Nw[i], Dw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i], sh.radius[i],
         Xw[j], sh.vertex_mask[j], Nw[j], Dw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j], sh.radius[j],
         n, fcp["gap"],
     )
+
+    def points_of_pairs(slack=0.0):
+        return jax.vmap(lambda *a: pair_contacts(*a, tol_rel=config.inside_tolerance,
+                                                 edge_contacts=config.edge_contacts, slack=slack))(*pair_geometry)
+
+    pts, depth, active = points_of_pairs()
     active = active & mask[:, None]
     depth = jnp.where(active, depth, 0.0)
 
@@ -295,12 +300,7 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
         t1, t2 = jax.vmap(_tangent_basis)(n)
         ap = config.joint_aperture
         if ap > 0:  # the patch of the near contact, faded out over the aperture
-            wpts, _, wact = jax.vmap(
-                lambda *a: pair_contacts(*a, tol_rel=config.inside_tolerance, edge_contacts=config.edge_contacts,
-                                         slack=0.5 * ap))(
-                Xw[i], sh.vertex_mask[i], Nw[i], Dw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i], sh.radius[i],
-                Xw[j], sh.vertex_mask[j], Nw[j], Dw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j], sh.radius[j],
-                n, fcp["gap"])
+            wpts, _, wact = points_of_pairs(slack=0.5 * ap)
             wact = wact & mask[:, None]
             s_gap = jnp.clip(fcp["gap"] / ap, 0.0, 1.0)
             fade = 1.0 - s_gap * s_gap * (3.0 - 2.0 * s_gap)

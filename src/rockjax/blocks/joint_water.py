@@ -52,9 +52,9 @@ def patch_triangles(points, active, n, t1, t2):
     Interior points are dropped first.  Seen from a hull vertex p, the directions to all other
     points lie within an angle of at most pi that contains the direction to their mean c; seen
     from an interior point they span more than pi.  So, with the extreme directions d_lo, d_hi
-    (measured from c - p; found as the least and greatest pseudo-angle, no atan2, no arg-reduction),
-    p is kept iff ``d_lo x d_hi >= 0`` (a relative tolerance of 1e-5
-    keeps points on a hull edge, which add nothing to the fan).  O(S^2) arithmetic, no sort; the
+    (measured from c - p; found as the least and greatest pseudo-angle, no atan2, no
+    arg-reduction), p is kept iff ``d_lo x d_hi >= 0`` (a relative tolerance of 1e-5 keeps points
+    on a hull edge, which add nothing to the fan).  O(S^2) arithmetic, no sort; the
     first version (a per-point orientation test against its successor) lost corners under jit,
     where fused multiply-adds round ``e x e`` to either sign.  Duplicates and padding carry no
     triangle.
