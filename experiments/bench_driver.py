@@ -14,10 +14,11 @@ load average, and each period's speed-up over the shortest one measured in the s
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
 import time
+
+from jsonl_out import emit
 
 SIZES = {"5k": (14, 0.3), "20k": (22, 0.1)}  # nx, default t_end [s]
 
@@ -59,10 +60,7 @@ def main(argv=None):
                        fluid_particle_steps_per_s=scene.config.n_fluid * steps[period] / w,
                        speedup_vs_shortest_period=base / w, load=os.getloadavg()[0],
                        device=str(jax.devices()[0].platform), date=time.strftime("%Y-%m-%d"))
-            print(json.dumps(rec), flush=True)
-            if args.out:
-                with open(args.out, "a") as f:
-                    f.write(json.dumps(rec) + "\n")
+            emit(rec, args.out)
 
 
 if __name__ == "__main__":

@@ -49,6 +49,8 @@ import subprocess
 import sys
 import time
 
+from jsonl_out import emit as emit_line
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PEERS_DIR = os.environ.get("PEERS_DIR", os.path.normpath(os.path.join(ROOT, "..", "shared", "peers")))
 PEER_VENV = os.environ.get("PEER_VENV", os.path.expanduser("~/.cache/peer-venv"))
@@ -228,12 +230,7 @@ def main(argv=None):
         return
 
     def emit(rec):
-        rec = dict(rec, **_meta()) if "date" not in rec else rec
-        line = json.dumps(rec)
-        print(line, flush=True)
-        if args.out:
-            with open(args.out, "a") as f:
-                f.write(line + "\n")
+        emit_line(dict(rec, **_meta()) if "date" not in rec else rec, args.out)
 
     if args.scaling:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,

@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime
-import json
 import os
 import time
 
@@ -35,6 +34,8 @@ jax.config.update("jax_enable_x64", True)
 
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
+
+from jsonl_out import emit  # noqa: E402
 
 A = 0.08
 
@@ -123,11 +124,7 @@ def main():
     stamp = {"date": datetime.date.today().isoformat(), "dtype": "float64", "load": os.getloadavg()[0]}
     recs = [resolution(n, a.t_end, d) for d in a.diffusion for n in a.a_over_dx] + (continuation(a.t_start, a.t_len) if a.t_len > 0 else [])
     for r in recs:
-        line = json.dumps({**r, **stamp})
-        print(line, flush=True)
-        if a.out:
-            with open(a.out, "a") as f:
-                f.write(line + "\n")
+        emit({**r, **stamp}, a.out)
 
 
 if __name__ == "__main__":

@@ -18,11 +18,12 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import json
 import os
 import time
 
 import numpy as np
+
+from jsonl_out import emit
 
 DEPTH = 0.2
 DEPTHS = [0.05, 0.08, 0.11, 0.14, 0.17]
@@ -73,11 +74,7 @@ def main():
     stamp = {"date": datetime.date.today().isoformat(), "load": os.getloadavg()[0]}
     for d in a.diffusion:
         for hf in a.h_factor:
-            line = json.dumps({**run(hf, d, a.t_end), **stamp})
-            print(line, flush=True)
-            if a.out:
-                with open(a.out, "a") as f:
-                    f.write(line + "\n")
+            emit({**run(hf, d, a.t_end), **stamp}, a.out)
 
 
 if __name__ == "__main__":

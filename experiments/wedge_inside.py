@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import json
 import os
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+
+from jsonl_out import emit
 
 HERE = Path(__file__).resolve().parent
 
@@ -74,10 +75,7 @@ def main():
                slope_angle_deg=scene.meta.get("slope_angle_deg"), frames_with_water_inside=len(frames),
                worst_depth_dx=max((f["depth_dx"] for f in frames), default=0.0), frames=frames,
                tag=a.tag, date=datetime.date.today().isoformat(), load=os.getloadavg()[0])
-    print(json.dumps({k: v for k, v in rec.items() if k != "frames"}))
-    if a.out:
-        with open(a.out, "a") as f:
-            f.write(json.dumps(rec) + "\n")
+    emit(rec, a.out, shown={k: v for k, v in rec.items() if k != "frames"})
 
 
 if __name__ == "__main__":
