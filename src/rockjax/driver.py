@@ -151,6 +151,9 @@ def _grow(config: Config, period: int, state: State, bits: int) -> tuple[Config,
     changes = {}
     if bits & Status.CONTACT_OVERFLOW:
         changes["blocks"] = dataclasses.replace(config.blocks, pair_capacity=_round8(2 * config.blocks.pair_capacity))
+    if bits & Status.JOINT_PATCH_OVERFLOW:
+        changes["blocks"] = dataclasses.replace(changes.get("blocks", config.blocks),
+                                                joint_patch_points=2 * config.blocks.joint_patch_points)
     if bits & Status.NEIGHBOUR_OVERFLOW:
         changes["neighbour_capacity"] = max(_round8(1.2 * int(state.nbrs.max_count)), config.neighbour_capacity + 8)
     if bits & Status.CELL_OVERFLOW:

@@ -116,12 +116,13 @@ class Status(enum.IntFlag):
     BLOCK_UNSTABLE = 128  #: dt exceeds the block stability limit (seed Eq 8) for the current Params
     BLOCK_PENETRATION = 256  #: a block contact penetrated deeper than the allowed fraction of its size
     WALL_PAIR_OVERFLOW = 512  #: more fluid-wall pairs in the list than ``Config.wall_pair_capacity``
+    JOINT_PATCH_OVERFLOW = 1024  #: a joint patch has more points than ``BlockConfig.joint_patch_points``
 
     @classmethod
     def growable(cls) -> "Status":
         """Bits that the driver cures by growing a buffer (or rebuilding more often) and rerunning."""
         return (cls.NEIGHBOUR_OVERFLOW | cls.CELL_OVERFLOW | cls.NEIGHBOUR_STALE | cls.CONTACT_OVERFLOW
-                | cls.WALL_PAIR_OVERFLOW)
+                | cls.WALL_PAIR_OVERFLOW | cls.JOINT_PATCH_OVERFLOW)
 
     @classmethod
     def describe(cls, bits: int) -> str:

@@ -202,3 +202,34 @@ def test_grad_of_joint_load_matches_finite_differences(x64):
     eps = 1e-6
     fd = [(load(lv + eps, z) - load(lv - eps, z)) / (2 * eps), (load(lv, z + eps) - load(lv, z - eps)) / (2 * eps)]
     np.testing.assert_allclose(np.asarray(g), np.asarray(fd), rtol=1e-5)
+
+
+def test_patch_points_gathered_and_overflow_flagged(x64):
+    """The joint patch is built from the pair's active points gathered into
+    ``joint_patch_points`` slots: the same load as from all 161 slots when they fit (the offset
+    boxes' patch has 4 corners among its active points), and JOINT_PATCH_OVERFLOW when they do not
+    (3 slots), which the driver's ``_grow`` cures by doubling the slots."""
+    from rockjax.driver import _grow
+    from rockjax.types import Status
+
+    pos = np.array([[0.0, 0.0, 0.15], [0.1, 0.15, 0.4 - 1e-5]])
+    kw = dict(positions=pos, motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6, joint_water=True,
+              joint_water_level=1.0)
+    shapes = [box(0.3, 0.3, 0.3), box(0.2, 0.2, 0.2)]
+    out = {}
+    for k in (200, 8, 3):
+        cfg, par, st = make_blocks(shapes, joint_patch_points=k, **kw)
+        F, T, _, status, info = contact_forces(st, par, cfg, dt=1e-4, gravity=GRAV, return_info=True)
+        out[k] = (np.asarray(F), np.asarray(T), int(status), int(np.asarray(info["active"]).sum()))
+    assert out[200][2] == 0 and out[8][2] == 0
+    assert 3 < out[200][3] <= 8  # the patch's active points fit in 8 slots, not in 3
+    np.testing.assert_allclose(out[8][0], out[200][0], rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(out[8][1], out[200][1], rtol=1e-12, atol=1e-9)
+    assert out[3][2] & Status.JOINT_PATCH_OVERFLOW
+    assert Status.JOINT_PATCH_OVERFLOW & Status.growable()
+    cfg3, _, _ = make_blocks(shapes, joint_patch_points=3, **kw)
+    from rockjax.types import Config
+
+    cfg = Config(n_fluid=0, n_wall=0, dt=1e-4, grid=None, cutoff=0.0, skin=0.0, blocks=cfg3)
+    grown, _ = _grow(cfg, 8, None, int(Status.JOINT_PATCH_OVERFLOW))
+    assert grown.blocks.joint_patch_points == 6

@@ -5,7 +5,8 @@ prism topology under a random affine map, largest extent 0.06-0.12 m), density 1
 thrown at 0-5 m/s in a random downward direction with a random spin (<= 20 rad/s) into a 0.3 x 0.3 m
 tank of 0.1 m water, at dx in {0.025, 0.02} m, either coupling; c0 = 50 m/s (10 x the largest
 speed), 30 ms. Limits documented by the builders: the block must hold a boundary particle
-(size >= ~2 dx, else ``sample_block_particles`` raises ValueError), c0 >= 10 x the flow speed.
+(its inscribed sphere wider than dx, else ``sample_block_particles`` raises ValueError),
+c0 >= 10 x the flow speed.
 
 What must hold: the run ends cleanly with every value finite, or stops with a SimulationError
 whose bits are documented fatal ones, named with the step; an overflow bit is always either cured

@@ -189,6 +189,16 @@ def _clipped_centre(X, e, em, N, D, fm):
     return jnp.sum(w * (p0 + p1), 0), 2.0 * jnp.sum(w)
 
 
+def _gather_active(points, active, k: int):
+    """The active points of each pair first, in ``k`` slots (``[P, k, 3]``, ``[P, k]``), and
+    whether a pair had more than ``k`` (then some are missing: an overflow, never silent)."""
+    if k >= active.shape[1]:
+        return points, active, jnp.zeros((), bool)
+    order = jnp.argsort(jnp.where(active, 0, 1), axis=1, stable=True)[:, :k]
+    over = jnp.any(jnp.sum(active.astype(jnp.int32), 1) > k)
+    return (jnp.take_along_axis(points, order[..., None], 1), jnp.take_along_axis(active, order, 1), over)
+
+
 def _remap(old: ContactHistory, pairs, mask, B):
     """Carry plane / shear history from the old pair buffer to the new one (matching (i, j))."""
     big = B * B + 1
@@ -306,6 +316,8 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
             fade = 1.0 - s_gap * s_gap * (3.0 - 2.0 * s_gap)
         else:
             wpts, wact, fade = pts, active, jnp.ones_like(fcp["gap"])
+        wpts, wact, over = _gather_active(wpts, wact, config.joint_patch_points)
+        status = status | jnp.where(over, Status.JOINT_PATCH_OVERFLOW.value, 0).astype(jnp.int32)
         Fw, fw, mw = jax.vmap(lambda *a: joint_water_load(
             *a, level=params.joint_water_level, density=params.joint_water_density, gravity=gvec))(
                 wpts, wact, n, t1, t2)

@@ -88,6 +88,10 @@ class BlockConfig:
         (``BlockParams.joint_water_level``; module ``joint_water``). Off: nothing is traced.
       joint_aperture: m, faces closer than this form a joint (its load fades out as the gap opens
         from 0 to this); 0: only the penetrating contact's patch, with no fade.
+      joint_patch_points: the most points one pair's joint patch is built from: its active contact
+        points are gathered into this many slots before the O(slots^2) hull (a box pair has up to
+        16; ``contact_slots`` is 161). More set ``Status.JOINT_PATCH_OVERFLOW``, which the driver
+        cures by doubling it.
     """
 
     n_blocks: int
@@ -111,12 +115,15 @@ class BlockConfig:
     penetration_limit: float = 0.1
     joint_water: bool = False
     joint_aperture: float = 0.0
+    joint_patch_points: int = 32
 
     def __post_init__(self):
         if len(self.motion) != self.n_blocks:
             raise ValueError(f"BlockConfig.motion has {len(self.motion)} entries, n_blocks={self.n_blocks}")
         if self.pair_capacity < 1:
             raise ValueError("BlockConfig.pair_capacity must be >= 1")
+        if self.joint_patch_points < 3:
+            raise ValueError(f"BlockConfig.joint_patch_points must be >= 3 (got {self.joint_patch_points})")
         if self.fcp_iterations < 0:
             raise ValueError("BlockConfig.fcp_iterations must be >= 0")
         if not (self.prescribed_ramp >= 0.0 and math.isfinite(self.prescribed_ramp)):
@@ -429,6 +436,7 @@ def make_blocks(
     joint_water_level: float = 0.0,
     joint_water_density: float = 1000.0,
     joint_aperture: float = 0.0,
+    joint_patch_points: int = 32,
 ):
     """Build ``(BlockConfig, BlockParams, BlockState)`` from convex polyhedra, validating every input.
 
@@ -462,7 +470,7 @@ def make_blocks(
       joint_water: block faces pressed together carry the hydrostatic pressure of a still water
         at ``joint_water_level`` (m, height along -gravity) of ``joint_water_density`` (kg/m^3,
         > 0); see ``blocks.joint_water``.  joint_aperture: m (>= 0), see :class:`BlockConfig`;
-        the broad-phase margin is raised to it.
+        the broad-phase margin is raised to it.  joint_patch_points: see :class:`BlockConfig`.
 
     Returns:
       ``(config, params, state)``; state arrays in float32 (float64 under ``jax_enable_x64``).
@@ -592,6 +600,7 @@ def make_blocks(
         penetration_limit=float(penetration_limit),
         joint_water=bool(joint_water),
         joint_aperture=float(jw_ap),
+        joint_patch_points=int(joint_patch_points),
     )
 
     f = float_dtype()

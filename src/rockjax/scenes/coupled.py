@@ -23,8 +23,9 @@ from ..types import (
     Config, Coupling, CouplingParams, DensityDiffusion, KernelKind, Scheme, State, Viscosity,
     WallModel, float_dtype,
 )
-from .base import GRAVITY, Scene, _positive, lattice, make_state, particle_layout, stable_dt, water_params
-from .shapes import clearance, fill, plane, shell
+from .base import GRAVITY, Scene, _positive, make_state, particle_layout, stable_dt, water_params
+from .block_sampling import sample_block_particles
+from .shapes import fill, plane, shell
 
 __all__ = ["coupled_scene", "sliding_wedge", "floating_box", "block_drop", "piston_wavemaker", "block_on_incline",
            "sample_block_particles", "coupling_params"]
@@ -49,57 +50,6 @@ def coupling_params(*, dx: float, c0: float, stiffness: float | None = None, dam
     t = float_dtype()
     return CouplingParams(penalty_stiffness=jnp.asarray(ks, t), penalty_damping=jnp.asarray(kd, t),
                           interaction_distance=jnp.asarray(r0, t))
-
-
-def _face_area(vertices: np.ndarray, n: np.ndarray, d: float, tol: float) -> float:
-    """Area [m^2] of the face of a convex polyhedron on the plane ``n . x = d`` (0 if it is an edge or vertex)."""
-    on = vertices[np.abs(vertices @ n - d) <= tol]
-    if len(on) < 3:
-        return 0.0
-    u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-    u /= np.linalg.norm(u)
-    v = np.cross(n, u)
-    xy = np.stack([on @ u, on @ v], axis=1)
-    from scipy.spatial import ConvexHull
-
-    try:
-        return float(ConvexHull(xy).volume)  # in 2D, ``volume`` is the area
-    except Exception:  # collinear points: no area
-        return 0.0
-
-
-def sample_block_particles(poly, dx: float, layers: int) -> np.ndarray:
-    """Body-frame boundary particles of a convex block: points of a cubic lattice inside it within
-    ``layers * dx`` of its surface (``[n, 3]`` m).
-
-    The lattice is axis-aligned in the body frame; along each axis it is shifted so that its
-    outer layer sits dx/2 inside the largest face perpendicular to that axis, if the block has
-    one (the face is then where the fluid sees it, as for tank walls: the fluid's first layer
-    rests ~dx/2 outside). Along other faces the outer layer's depth falls anywhere in (0, dx]:
-    every lattice point inside the block is kept, so that depth is dx/2 on average. (Until
-    2026-11-25 the lattice started at the bounding box's low corner and points within dx/4 of a
-    face were dropped: a 4.66 dx tall wedge had its top layer 1.16 dx deep and water settled
-    0.45 dx inside its top face; ``experiments/wedge_inside.py``.)
-    """
-    hs = [(np.asarray(n, float), float(d)) for n, d in zip(poly.face_normal, poly.face_offset)]
-    verts = np.asarray(poly.vertices, float)
-    vmin = np.min(verts, axis=0)
-    vmax = np.max(verts, axis=0)
-    tol = 1e-9 * max(1.0, float(np.max(vmax - vmin)))
-    origin = vmin.copy()
-    for a in range(3):
-        faces = [(n, d) for n, d in hs if abs(abs(n[a]) - 1.0) < 1e-9]
-        if faces:
-            n, d = max(faces, key=lambda f: _face_area(verts, f[0], f[1], tol))
-            plane_at = d * n[a]  # the face is the plane x_a = plane_at: lattice cells end on it
-            origin[a] = plane_at - np.ceil((plane_at - vmin[a]) / dx - 1e-9) * dx
-    n_cells = np.ceil((vmax - origin) / dx - 1e-9)
-    pts = lattice(origin, origin + n_cells * dx, dx)
-    phi = clearance(pts, hs)  # inside the block: phi >= 0
-    keep = (phi > 1e-6 * dx) & (phi < layers * dx)
-    if not np.any(keep):
-        raise ValueError(f"block too thin for dx = {dx} m: no boundary particle fits inside it; use a smaller dx")
-    return pts[keep]
 
 
 def _blocks_api():
