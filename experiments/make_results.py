@@ -381,9 +381,10 @@ def sec_coupled(doc: Doc):
     rows = [[r.get("coupling"), r.get("dx"), r.get("n_fluid"), r.get("n_wall"), r.get("n_blocks"),
              r.get("ms_per_step_full"), r.get("ms_per_step_fluid"), r.get("ms_per_step_blocks"),
              r.get("ms_per_step_coupling"), 100 * r["share_blocks_plus_coupling"], r.get("fluid_particle_steps_per_s"),
-             r.get("load")] for r in recs]
+             r.get("joint_patch_points", "-"), r.get("ms_per_step_blocks_all_slots", "-"), r.get("load")] for r in recs]
     doc.p(table(["coupling", "dx [m]", "n_fluid", "n_wall", "blocks", "full ms/step", "fluid ms", "blocks ms",
-                 "coupling ms", "blocks+coupling %", "fluid p-steps/s", "load"], rows))
+                 "coupling ms", "blocks+coupling %", "fluid p-steps/s", "joint patch slots",
+                 "blocks ms, patch from all slots", "load"], rows))
 
 
 def sec_grad(doc: Doc):
