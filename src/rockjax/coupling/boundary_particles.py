@@ -1,9 +1,9 @@
 """Boundary particles carried by blocks (as DualSPHysics does for floating bodies).
 
-Layers of particles sampled inside each moving block (``scenes.block_sampling``: dx/2,
-3dx/2, ... inside its faces) sit in the wall segment with ``Particles.body = b`` and their body-frame position ``x_body``.
-Every step they are placed at the block's new pose with the block's point velocity
-(``place``); the fluid meets them as wall particles (Adami pressure, no-slip through the
+Layers of particles sampled inside each moving block (``scenes.block_sampling``: dx/2, 3dx/2,
+... inside its faces) sit in the wall segment with ``Particles.body = b`` and their body-frame
+position ``x_body``. Every step they are placed at the block's new pose with the block's point
+velocity (``place``); the fluid meets them as wall particles (Adami pressure, no-slip through the
 viscous term). The load on block b is minus the sum of the forces its particles exert on the
 fluid (``load``): ``F_b = -sum_i m_i a_i^(b)`` where ``a_i^(b)`` is the SPH acceleration of
 fluid particle i from the particles of block b alone, and the torque
