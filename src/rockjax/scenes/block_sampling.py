@@ -148,36 +148,56 @@ def sample_block_particles(poly, dx: float, layers: int) -> np.ndarray:
         if depth < (k + 0.5) * dx:
             break
     pts = _greedy_keep(np.concatenate(groups), 0.5 * dx)
-    return _cover_acute_edges(pts, normals, offsets, np.asarray(poly.vertices, float), dx)
+    return np.concatenate([pts, _acute_cover(pts, normals, offsets, centre, dx, tol)])
 
 
-def _cover_acute_edges(pts: np.ndarray, normals: np.ndarray, offsets: np.ndarray, vertices: np.ndarray,
-                       dx: float) -> np.ndarray:
-    """``pts`` plus particles where the block is farther than ``COVER * dx`` from all of them.
+def _polygon_boundary_distance(points: np.ndarray, poly: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """In-plane distance [m] from points on a convex polygon (``poly`` [k, 3] ordered, normal ``n``)
+    to its boundary."""
+    centre = poly.mean(0)
+    dist = np.full(len(points), np.inf)
+    for i in range(len(poly)):
+        e = poly[(i + 1) % len(poly)] - poly[i]
+        w = np.cross(n, e)
+        if (centre - poly[i]) @ w < 0:
+            w = -w
+        dist = np.minimum(dist, (points - poly[i]) @ (w / np.linalg.norm(w)))
+    return dist
 
-    On a face, every point of the block is within ``sqrt(3)/2 dx`` of the dx/2-deep layer (a
-    corner of a cube of side dx); at an edge sharper than 90 deg the layer's edge recedes by
-    ``dx / (2 sin(theta/2))`` (2.3 dx for the sliding wedge's 25 deg tip) and water settles in the
-    empty tip. Candidates on a dx/4 lattice within dx/2 of the faces that are farther than that
-    from every particle get particles, deepest first, each covering its neighbourhood.
+
+def _acute_cover(pts: np.ndarray, normals: np.ndarray, offsets: np.ndarray, centre: np.ndarray, dx: float,
+                 tol: float) -> np.ndarray:
+    """Particles [m, 3] added where the block's dx/2-thick skin is farther than ``COVER * dx`` from
+    every particle of ``pts``.
+
+    On a face, every point of the skin is within ``sqrt(3)/2 dx`` of the dx/2-deep layer (a corner
+    of a cube of side dx); at an edge sharper than 90 deg the layer's edge recedes by
+    ``dx / (2 sin(theta/2))`` (2.3 dx for the sliding wedge's 25 deg edge; more at a sharp apex)
+    and water would settle in the empty edge. Candidates: a dx/4 lattice on each face, within
+    (the layer's largest recession + dx) of the face's boundary, at depths dx/8, dx/4 and 3dx/8
+    (at least dx/16 deep: no particle on the surface); those farther than that from every particle get particles, deepest first, each covering its
+    neighbourhood. The candidates scale with the blocks' edge length, not their volume.
     """
     from scipy.spatial import cKDTree
 
-    from .base import lattice
-
-    cover = COVER * dx
-    lo = vertices.min(0)
-    cand = lattice(lo, lo + np.ceil((vertices.max(0) - lo) / (0.25 * dx)) * 0.25 * dx, 0.25 * dx)
+    verts, faces = _face_polygons(normals, offsets, centre, tol)
+    inner, _ = _face_polygons(normals, offsets - 0.5 * dx, centre, tol)
+    recess = np.max(cKDTree(inner).query(verts)[0])
+    band = recess + dx
+    cand = []
+    for n, ids in faces:
+        on = _face_lattice(verts[ids], n, 0.25 * dx, tol)
+        on = on[_polygon_boundary_distance(on, verts[ids], n) <= band]
+        cand += [on - depth * n[None] for depth in (0.125 * dx, 0.25 * dx, 0.375 * dx)]
+    cand = np.concatenate(cand)
     phi = np.min(offsets[None] - cand @ normals.T, axis=1)
-    cand, phi = cand[(phi >= 0) & (phi < 0.5 * dx)], phi[(phi >= 0) & (phi < 0.5 * dx)]
-    far = cKDTree(pts).query(cand)[0] > cover
+    skin = (phi > 0.0625 * dx) & (phi < 0.5 * dx)
+    cand, phi = cand[skin], phi[skin]
+    far = cKDTree(pts).query(cand)[0] > COVER * dx
+    if not np.any(far):
+        return np.zeros((0, 3))
     cand, phi = cand[far], phi[far]
-    added = []
-    for i in np.argsort(-phi, kind="stable"):
-        if added and np.min(np.linalg.norm(np.asarray(added) - cand[i], axis=1)) <= cover:
-            continue
-        added.append(cand[i])
-    return np.concatenate([pts, np.asarray(added).reshape(-1, 3)])
+    return _greedy_keep(cand[np.argsort(-phi, kind="stable")], COVER * dx)
 
 
 COVER = 0.5 * np.sqrt(3.0) * (1.0 + 1e-6)  # [dx] the farthest a point of a face is from the dx/2-deep lattice
