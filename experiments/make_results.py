@@ -496,11 +496,13 @@ def sec_wedge_inside(doc: Doc):
         fr = r.get("frames", [])
         late = [f for f in fr if f["t"] >= 1.6]
         worst = max(fr, key=lambda f: f["depth_dx"]) if fr else {}
-        rows.append([r.get("tag"), r.get("n_boundary"), r.get("frames_with_water_inside"), r.get("worst_depth_dx"),
+        rows.append([r.get("tag"), r.get("n_boundary"), r.get("frames_with_water_inside"),
+                     sum(f["depth_dx"] > 0.5 for f in fr), r.get("worst_depth_dx"),
                      worst.get("t"), worst.get("body_xyz"), max((f["depth_dx"] for f in late), default=0.0),
                      max((f["n_inside"] for f in late), default=0), r.get("date")])
-    doc.p(table(["boundary-particle sampling", "boundary particles", "frames with water inside", "worst / dx",
-                 "at t s", "where (body frame)", "at rest: worst / dx", "at rest: particles inside", "date"], rows))
+    doc.p(table(["boundary-particle sampling", "boundary particles", "frames with water inside",
+                 "frames with water deeper than dx/2", "worst / dx", "at t s", "where (body frame)",
+                 "at rest: worst / dx", "at rest: particles inside", "date"], rows))
 
 
 def sec_energy_creep(doc: Doc):

@@ -7,7 +7,9 @@ the deepest one it records the depth [dx], how many are inside, its position in 
 frame (x along the top face from the front face towards the back tip, z up from the bottom-front
 edge, as built; the wedge's 25 deg edge is at the back) and the wedge's thickness (top face to
 slope face) at that x, in dx -- whether the water sits where the wedge is too thin for its
-boundary-particle lattice. Also the count of boundary particles. JSON lines out (``--out`` appends).
+boundary-particle lattice. Also the count of boundary particles, and of the frames where the
+water got past their outer layer (deeper than dx/2, the depth of that layer since 2026-11-25's
+face-following sampling). JSON lines out (``--out`` appends).
 
     python experiments/wedge_inside.py --out experiments/results/wedge_inside.jsonl   # ~1-5 min
 """
@@ -73,7 +75,9 @@ def main():
     rec = dict(dx=a.dx, t_end=float(res.times[-1]), wall_s=wall, n_fluid=scene.config.n_fluid, n_boundary=n_bp,
                block_length=L, block_height=H,
                slope_angle_deg=scene.meta.get("slope_angle_deg"), frames_with_water_inside=len(frames),
-               worst_depth_dx=max((f["depth_dx"] for f in frames), default=0.0), frames=frames,
+               worst_depth_dx=max((f["depth_dx"] for f in frames), default=0.0),
+               # behind the particles' outer layer (dx/2 deep): past the wall the fluid sees
+               frames_behind_outer_layer=sum(f["depth_dx"] > 0.5 for f in frames), frames=frames,
                tag=a.tag, date=datetime.date.today().isoformat(), load=os.getloadavg()[0])
     emit(rec, a.out, shown={k: v for k, v in rec.items() if k != "frames"})
 
