@@ -13,17 +13,10 @@ edges at spacing <= dx and a square lattice of spacing dx on each face polygon (
 polygon's longest edge) are candidates, and a greedy pass keeps candidates at least ``dx / 2``
 from every kept one (vertices first, then edges, then face interiors). Every particle of layer k
 is then exactly ``(k + 1/2) dx`` inside the nearest face, and the layers cover edges and corners.
-
-The outer layer's edges are rows at spacing <= dx/2 (each particle half a cell's volume, so the
-mass per length is a lattice row's): at a convex edge that row is the only barrier, and with
-spacing dx a particle pressed against the edge passed between two of its particles
-(``experiments/wedge_inside.py``: 0.32 dx inside the wedge's front-top edge on impact; none
-with the rows at dx/2).
 Where the block is thinner than the next layer's depth, a last layer lies near its medial surface
 (unless the previous one is within 0.75 dx of it), so that no gap wider than 1.5 dx opens between the
 layers of opposite faces.
-For a box whose sides are multiples of dx this is the cubic lattice aligned with the box, plus
-the midpoints of its outer layer's edge rows.
+For a box whose sides are multiples of dx this is the cubic lattice aligned with the box.
 """
 
 from __future__ import annotations
@@ -108,9 +101,8 @@ def _face_lattice(poly: np.ndarray, n: np.ndarray, dx: float, tol: float) -> np.
     return cand[inside]
 
 
-def _greedy_keep(points: np.ndarray, radius: float, rows: int = 0, row_radius: float = 0.0) -> np.ndarray:
-    """Indices of the points kept, in order: each at least ``radius`` from every earlier kept point,
-    except that the first ``rows`` points (the edge rows) need only ``row_radius`` among themselves."""
+def _greedy_keep(points: np.ndarray, radius: float) -> np.ndarray:
+    """The points (in their order) at least ``radius`` from every earlier kept point."""
     from scipy.spatial import cKDTree
 
     tree = cKDTree(points)
@@ -120,20 +112,13 @@ def _greedy_keep(points: np.ndarray, radius: float, rows: int = 0, row_radius: f
         if gone[i]:
             continue
         keep.append(i)
-        near = np.asarray(tree.query_ball_point(points[i], radius * (1.0 - 1e-9)), int)
-        if i < rows:  # an edge-row point: the other row points only within row_radius
-            near_rows = np.asarray(tree.query_ball_point(points[i], row_radius * (1.0 - 1e-9)), int)
-            near = np.concatenate([near[near >= rows], near_rows])
-        gone[near] = True
-    return np.asarray(keep, int)
+        gone[tree.query_ball_point(points[i], radius * (1.0 - 1e-9))] = True
+    return points[np.asarray(keep, int)]
 
 
-def sample_block_particles(poly, dx: float, layers: int, *, volumes: bool = False):
+def sample_block_particles(poly, dx: float, layers: int) -> np.ndarray:
     """Body-frame boundary particles [n, 3] m of a convex block (a ``blocks.geometry`` polyhedron):
     ``layers`` surfaces at depths ``(k + 1/2) dx`` inside its faces (module docstring).
-
-    With ``volumes``, returns ``(points, volume [n] m^3)``: dx^3 each, dx^3 / 2 on the outer
-    layer's edge rows (spaced dx/2, so that mass per length is that of a lattice row).
 
     Raises ValueError if the block is too thin for ``dx`` (its inscribed sphere's diameter must
     exceed dx: the first layer lies dx/2 inside every face).
@@ -146,8 +131,7 @@ def sample_block_particles(poly, dx: float, layers: int, *, volumes: bool = Fals
     if radius <= 0.5 * dx * (1.0 + 1e-6):
         raise ValueError(f"block too thin for dx = {dx} m: its inscribed sphere has diameter {2 * radius:.4g} m, "
                          "and the boundary particles lie dx/2 inside every face; use a dx below that diameter")
-    groups = []  # candidates in priority order: the outer layer's edge rows, then each layer's
-    n_rows = 0   # vertices, edges and face interiors
+    groups = []  # candidates in priority order: each layer's vertices, edges, face interiors
     for k in range(layers):
         depth = (k + 0.5) * dx
         if radius <= depth + 0.05 * dx:
@@ -157,24 +141,14 @@ def sample_block_particles(poly, dx: float, layers: int, *, volumes: bool = Fals
                 break
             depth = radius - 0.05 * dx
         verts, faces = _face_polygons(normals, offsets - depth, centre, tol)
-        edges = sorted({tuple(sorted((int(ids[i]), int(ids[(i + 1) % len(ids)]))))
-                        for _, ids in faces for i in range(len(ids))})
-        spacing = 0.5 * dx if k == 0 else dx  # the outer layer's edges: rows at dx/2
+        edges = {tuple(sorted((int(ids[i]), int(ids[(i + 1) % len(ids)])))) for _, ids in faces for i in range(len(ids))}
         groups.append(verts)
-        groups += [_edge_points(verts[a], verts[b], spacing) for a, b in edges]
-        if k == 0:
-            n_rows = sum(len(g) for g in groups)
+        groups += [_edge_points(verts[a], verts[b], dx) for a, b in sorted(edges)]
         groups += [_face_lattice(verts[ids], n, dx, tol) for n, ids in faces]
         if depth < (k + 0.5) * dx:
             break
-    cand = np.concatenate(groups)
-    keep = _greedy_keep(cand, 0.5 * dx, n_rows, 0.25 * dx)
-    pts = cand[keep]
-    cover = _acute_cover(pts, normals, offsets, centre, dx, tol)
-    if not volumes:
-        return np.concatenate([pts, cover])
-    vol = np.where(keep < n_rows, 0.5 * dx**3, dx**3)
-    return np.concatenate([pts, cover]), np.concatenate([vol, np.full(len(cover), dx**3)])
+    pts = _greedy_keep(np.concatenate(groups), 0.5 * dx)
+    return np.concatenate([pts, _acute_cover(pts, normals, offsets, centre, dx, tol)])
 
 
 def _polygon_boundary_distance(points: np.ndarray, poly: np.ndarray, n: np.ndarray) -> np.ndarray:
@@ -223,8 +197,7 @@ def _acute_cover(pts: np.ndarray, normals: np.ndarray, offsets: np.ndarray, cent
     if not np.any(far):
         return np.zeros((0, 3))
     cand, phi = cand[far], phi[far]
-    cand = cand[np.argsort(-phi, kind="stable")]
-    return cand[_greedy_keep(cand, COVER * dx)]
+    return _greedy_keep(cand[np.argsort(-phi, kind="stable")], COVER * dx)
 
 
 COVER = 0.5 * np.sqrt(3.0) * (1.0 + 1e-6)  # [dx] the farthest a point of a face is from the dx/2-deep lattice
