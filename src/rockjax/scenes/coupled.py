@@ -128,12 +128,14 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
 
         R = np.asarray(quat_matrix(jnp.asarray(bstate.q)))
         X = np.asarray(bstate.x)
-        extra, bodies, xb = [], [], []
+        extra, bodies, xb, vb = [], [], [], []
         for b in moving:
-            pts = sample_block_particles(polyhedra[b], dx, layers)
+            pts, v = sample_block_particles(polyhedra[b], dx, layers, volumes=True)
             extra.append(pts @ R[b].T + X[b])
             bodies.append(np.full(len(pts), b))
             xb.append(pts)
+            vb.append(v)
+        n_fixed_walls = len(wall_x)
         wall_x = np.concatenate([wall_x] + extra)
         body = np.concatenate([body] + bodies)
         x_body = np.concatenate([x_body] + xb)
@@ -144,6 +146,9 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
                         skin_factor=skin_factor)
     grid, cutoff, skin, k, cell_cap, x, kind, vol, rho = (L[n] for n in (
         "grid", "cutoff", "skin", "neighbour_capacity", "cell_capacity", "x", "kind", "vol", "rho"))
+    if coupling == Coupling.BOUNDARY_PARTICLES:  # each block particle: its share of the block's shell
+        vol = vol.copy()
+        vol[len(fluid_x) + n_fixed_walls:] = np.concatenate(vb)
     dt = stable_dt(params, scheme=scheme, viscosity=Viscosity.ARTIFICIAL, cfl=cfl)
     dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
     if dt_blocks < dt and "normal_stiffness" not in (block_kwargs or {}):
