@@ -36,16 +36,16 @@ run-up 0.073 m with either. Water inside
 the boundary-particle wedge: worst 0.452 dx (t = 0.97 s, against the slope face near the
 front-bottom edge; 0.376 dx without joint water, the wedge being slower), still a strict xfail.
 
-Later on 2026-11-25 the block's particles follow its faces (``scenes.block_sampling``: every
-face's outer layer exactly dx/2 deep, the 25 deg edge covered; the lattice had the slope face's
-outer layer anywhere 0.06-0.96 dx deep). ``experiments/wedge_inside.py``: worst 0.324 dx,
-at t = 0.64 s, at the front-top edge as the wedge enters the water (0.32 dx inside the front face,
-0.5 dx below the top: squeezed between the edge's particles by the impact); the slope-face and
-tip cases are gone (0.33 dx at the tip without the cover). Two runs that differ only in float
-summation order also show a single particle slipping through the top face's outer layer, between
-two particles dx apart, at ~1.9-2.0 s with the wedge at rest on the floor (0.25 dx at 2.0 s in
-one, 1.27 dx deep by 2.3 s in the other, trapped between the layers): the particle wall is not a
-tight barrier for a slow particle. Still a strict xfail.
+Later on 2026-11-25 the block's particles were resampled (``scenes.block_sampling``: an outer
+layer exactly dx/2 inside every face, a lattice behind it, the 25 deg edge covered, each particle
+with its share of the block's shell as volume; the lattice had the slope face's outer layer
+anywhere 0.06-0.96 dx deep). ``experiments/wedge_inside.py`` with the final sampling: worst
+0.309 dx, at t = 0.67 s at the front-top edge as the wedge enters the water (0.37 dx inside the
+front face, 0.31 dx below the top: pressed between the edge's particles by the impact), no
+particle past the outer layer; the slope-face and tip cases are gone. Runs with intermediate
+samplings (same file) also showed a single slow particle slipping through the top face's outer
+layer, between particles dx apart, at ~1.9-2.0 s with the wedge at rest (up to 1.04 dx deep):
+the particle wall is not a tight barrier. Still a strict xfail.
 """
 
 import jax.numpy as jnp
@@ -86,10 +86,9 @@ def test_stable_and_wave_reaches_beach(run):
 def test_no_water_inside_wedge(run, request):
     coupling, scene, res = run
     if coupling == rj.Coupling.BOUNDARY_PARTICLES:
-        request.applymarker(pytest.mark.xfail(strict=True, reason="measured 2026-11-25 (face-following particles): "
-                                                                 "0.32 dx inside at the front-top edge on impact, and a "
-                                                                 "particle slipping through the top face's outer layer "
-                                                                 "at ~2 s (module docstring)"))
+        request.applymarker(pytest.mark.xfail(strict=True, reason="measured 2026-11-25 (resampled particles): "
+                                                                 "0.31 dx inside at the front-top edge on impact "
+                                                                 "(module docstring)"))
     fluid = res.frames["kind"][0] == rj.Kind.FLUID
     B0 = scene.state.blocks
     worst = np.inf
