@@ -175,11 +175,10 @@ def _shell_volumes(pts, normals, offsets, centre, dx: float, layers: int, tol: f
     count = np.zeros(len(pts))
     depths = (np.arange(int(round(layers * dx / s))) + 0.5) * s
     for n, ids in faces:
-        face_id = int(np.argmax(normals @ n))  # no two faces of a convex block share a normal
         on = _face_lattice(verts[ids], n, s, tol, centred=True)
         for d in depths:
             q = on - d * n[None]
-            c = offsets[None] - q @ normals.T  # clearance to every face (d to face_id)
+            c = offsets[None] - q @ normals.T  # clearance to every face (d to this one)
             ties = np.sum(c <= d + tol, axis=1)  # faces this point is nearest to (>= 1)
             mine = np.all(c >= d - tol, axis=1)
             if np.any(mine):
