@@ -98,16 +98,7 @@ def _face_lattice(poly: np.ndarray, n: np.ndarray, dx: float, tol: float, *, cen
     iv = np.arange(0, np.ceil(pv.max() / dx) + 1) + shift
     gu, gv = np.meshgrid(iu * dx, iv * dx, indexing="ij")
     cand = a[None] + gu.reshape(-1, 1) * u[None] + gv.reshape(-1, 1) * v[None]
-    inside = np.ones(len(cand), bool)
-    centre = poly.mean(0)
-    for i in range(k):  # keep points on the inner side of every edge
-        e = poly[(i + 1) % k] - poly[i]
-        w = np.cross(n, e)
-        if (centre - poly[i]) @ w < 0:
-            w = -w
-        w /= np.linalg.norm(w)
-        inside &= (cand - poly[i]) @ w >= -tol
-    return cand[inside]
+    return cand[_polygon_boundary_distance(cand, poly, n) >= -tol]
 
 
 def _greedy_keep(points: np.ndarray, radius: float) -> np.ndarray:
@@ -142,6 +133,7 @@ def sample_block_particles(poly, dx: float, layers: int, *, volumes: bool = Fals
     if radius <= 0.5 * dx * (1.0 + 1e-6):
         raise ValueError(f"block too thin for dx = {dx} m: its inscribed sphere has diameter {2 * radius:.4g} m, "
                          "and the boundary particles lie dx/2 inside every face; use a dx below that diameter")
+    block = _face_polygons(normals, offsets, centre, tol)
     # the outer layer: the block shrunk by dx/2 -- its vertices, edges and face lattices
     verts, faces = _face_polygons(normals, offsets - 0.5 * dx, centre, tol)
     edges = sorted({tuple(sorted((int(ids[i]), int(ids[(i + 1) % len(ids)]))))
@@ -150,15 +142,15 @@ def sample_block_particles(poly, dx: float, layers: int, *, volumes: bool = Fals
     groups += [_face_lattice(verts[ids], n, dx, tol) for n, ids in faces]
     # the inner layers: a cubic lattice (uniform density, aligned with the largest axis-normal
     # faces), from dx/2 behind the outer layer to ``layers`` dx deep
-    groups.append(_interior_lattice(np.asarray(poly.vertices, float), normals, offsets, dx, layers, tol))
+    groups.append(_interior_lattice(block, normals, offsets, dx, layers))
     pts = _greedy_keep(np.concatenate(groups), 0.5 * dx)
-    pts = np.concatenate([pts, _acute_cover(pts, normals, offsets, centre, dx, tol)])
+    pts = np.concatenate([pts, _acute_cover(pts, block, verts, normals, offsets, dx, tol)])
     if not volumes:
         return pts
-    return pts, _shell_volumes(pts, normals, offsets, centre, dx, layers, tol)
+    return pts, _shell_volumes(pts, block, normals, offsets, dx, layers, tol)
 
 
-def _shell_volumes(pts, normals, offsets, centre, dx: float, layers: int, tol: float) -> np.ndarray:
+def _shell_volumes(pts, block, normals, offsets, dx: float, layers: int, tol: float) -> np.ndarray:
     """Volume [n] m^3 of each particle: the part of the block's shell (depth < ``layers`` dx)
     nearer to it than to any other particle, counted on a dx/4 lattice.
 
@@ -170,7 +162,7 @@ def _shell_volumes(pts, normals, offsets, centre, dx: float, layers: int, tol: f
     from scipy.spatial import cKDTree
 
     s = 0.25 * dx
-    verts, faces = _face_polygons(normals, offsets, centre, tol)
+    verts, faces = block  # ``_face_polygons`` of the block
     tree = cKDTree(pts)
     count = np.zeros(len(pts))
     depths = (np.arange(int(round(layers * dx / s))) + 0.5) * s
@@ -186,39 +178,30 @@ def _shell_volumes(pts, normals, offsets, centre, dx: float, layers: int, tol: f
     return count * s**3
 
 
-def _interior_lattice(vertices, normals, offsets, dx: float, layers: int, tol: float) -> np.ndarray:
+def _interior_lattice(block, normals, offsets, dx: float, layers: int) -> np.ndarray:
     """Points of a cubic lattice of spacing dx with depth in [dx, layers dx) [n, 3] m; along each
     axis the lattice is shifted so that its layers lie (k + 1/2) dx inside the largest face normal
-    to that axis, if the block has one."""
+    to that axis, if the block has one (``block``: its ``_face_polygons``)."""
     from .base import lattice
 
-    vmin, vmax = vertices.min(0), vertices.max(0)
+    verts, faces = block
+    vmin, vmax = verts.min(0), verts.max(0)
     origin = vmin.copy()
     for a in range(3):
-        faces = [(n, d) for n, d in zip(normals, offsets) if abs(abs(n[a]) - 1.0) < 1e-9]
-        if faces:
-            n, d = max(faces, key=lambda f: _face_area(vertices, f[0], f[1], tol))
-            plane_at = d * n[a]  # lattice cells end on the plane x_a = plane_at
+        normal = [(n, ids) for n, ids in faces if abs(abs(n[a]) - 1.0) < 1e-9]
+        if normal:
+            areas = np.array([_polygon_area(verts[ids], n) for n, ids in normal])
+            n, ids = normal[int(np.flatnonzero(areas >= areas.max() * (1.0 - 1e-9))[0])]  # first of the largest
+            plane_at = float(verts[ids[0]] @ n) * n[a]  # lattice cells end on the plane x_a = plane_at
             origin[a] = plane_at - np.ceil((plane_at - vmin[a]) / dx - 1e-9) * dx
     pts = lattice(origin, origin + np.ceil((vmax - origin) / dx - 1e-9) * dx, dx)
     phi = np.min(offsets[None] - pts @ normals.T, axis=1)
     return pts[(phi >= dx * (1.0 - 1e-9)) & (phi < layers * dx)]
 
 
-def _face_area(vertices: np.ndarray, n: np.ndarray, d: float, tol: float) -> float:
-    """Area [m^2] of the face of a convex polyhedron on the plane ``n . x = d`` (0 if it is an edge or vertex)."""
-    from scipy.spatial import ConvexHull
-
-    on = vertices[np.abs(vertices @ n - d) <= tol * 1e3]
-    if len(on) < 3:
-        return 0.0
-    u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-    u /= np.linalg.norm(u)
-    xy = np.stack([on @ u, on @ np.cross(n, u)], axis=1)
-    try:
-        return float(ConvexHull(xy).volume)  # in 2D, ``volume`` is the area
-    except Exception:  # collinear points: no area
-        return 0.0
+def _polygon_area(poly: np.ndarray, n: np.ndarray) -> float:
+    """Area [m^2] of the ordered convex polygon ``poly`` [k, 3] with unit normal ``n``."""
+    return 0.5 * abs(float(np.sum(np.cross(poly, np.roll(poly, -1, axis=0)) @ n)))
 
 
 def _polygon_boundary_distance(points: np.ndarray, poly: np.ndarray, n: np.ndarray) -> np.ndarray:
@@ -235,7 +218,7 @@ def _polygon_boundary_distance(points: np.ndarray, poly: np.ndarray, n: np.ndarr
     return dist
 
 
-def _acute_cover(pts: np.ndarray, normals: np.ndarray, offsets: np.ndarray, centre: np.ndarray, dx: float,
+def _acute_cover(pts: np.ndarray, block, inner: np.ndarray, normals: np.ndarray, offsets: np.ndarray, dx: float,
                  tol: float) -> np.ndarray:
     """Particles [m, 3] added where the block's dx/2-thick skin is farther than ``COVER * dx`` from
     every particle of ``pts``.
@@ -250,8 +233,7 @@ def _acute_cover(pts: np.ndarray, normals: np.ndarray, offsets: np.ndarray, cent
     """
     from scipy.spatial import cKDTree
 
-    verts, faces = _face_polygons(normals, offsets, centre, tol)
-    inner, _ = _face_polygons(normals, offsets - 0.5 * dx, centre, tol)
+    verts, faces = block  # ``_face_polygons`` of the block; ``inner``: of the block shrunk by dx/2
     recess = np.max(cKDTree(inner).query(verts)[0])
     band = recess + dx
     cand = []
