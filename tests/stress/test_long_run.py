@@ -140,7 +140,7 @@ KNOWN = {
 def _known(request, long_run, name):
     reason = KNOWN.get((name, long_run["run"]))
     if reason:
-        request.applymarker(pytest.mark.xfail(strict=True, reason=reason))
+        request.applymarker(pytest.mark.xfail(strict=True, raises=AssertionError, reason=reason))
 
 
 def test_energy_no_growth(long_run, request):
