@@ -13,7 +13,9 @@ is never traced):
 * fluid (``config.n_fluid > 0``): ``Scheme.WCSPH`` (``sph.wcsph``) or ``Scheme.SEED`` (``sph.seed``);
 * coupling: ``Coupling.PENALTY``, seed Eq 22 on the fluid at the end of the step, the reaction
   stored for the blocks' next step (``coupling.penalty``); ``Coupling.BOUNDARY_PARTICLES``, the
-  loads of the block particles summed in the WCSPH momentum pass (``coupling.boundary_particles``);
+  loads of the block particles summed in the WCSPH momentum pass (``coupling.boundary_particles``),
+  plus, with ``config.coupling_guard``, the penalty within dx/4 of a face as a guard against
+  water pressed into a block between its particles;
 * checks: non-finite values, particles off the grid, stale neighbour list, time step beyond the
   stability limit; each sets a ``Status`` bit for the host driver.
 
@@ -117,8 +119,9 @@ def _fluid_load(state: State, params: Params, config: Config, *, kick: bool) -> 
     if config.coupling == Coupling.BOUNDARY_PARTICLES:
         from .coupling import boundary_particles
 
-        return state.replace(coupling=boundary_particles.load(state.particles, state.nbrs, state.blocks, params,
-                                                              config))
+        state = state.replace(coupling=boundary_particles.load(state.particles, state.nbrs, state.blocks, params,
+                                                               config))
+        return _guard(state, params, config, kick=kick)
     if config.coupling == Coupling.PENALTY:
         from .coupling import penalty
 
@@ -127,6 +130,24 @@ def _fluid_load(state: State, params: Params, config: Config, *, kick: bool) -> 
             return state.replace(particles=P, coupling=load)
         return state.replace(coupling=penalty.load(state.particles, state.blocks, params, config))
     return state
+
+
+def _guard(state: State, params: Params, config: Config, *, kick: bool) -> State:
+    """Boundary particles with ``config.coupling_guard``: the seed Eq 22 penalty on the fluid within
+    ``params.coupling.interaction_distance`` of a block face (dx/4 by default, where no particle
+    sits at rest: the first layer stays ~dx/2 from the face), so that water pressed between a
+    block's particles cannot enter it; the equal and opposite reaction is added to the loads.
+    With ``kick`` the fluid is kicked by dt times it (in a step), else only the load is added."""
+    if config.coupling != Coupling.BOUNDARY_PARTICLES or not config.coupling_guard:
+        return state
+    from .coupling import penalty
+
+    if kick:
+        P, g = penalty.apply(state.particles, state.blocks, params, config)
+    else:
+        P, g = state.particles, penalty.load(state.particles, state.blocks, params, config)
+    c = state.coupling
+    return state.replace(particles=P, coupling=c.replace(force=c.force + g.force, torque=c.torque + g.torque))
 
 
 def _load_bodies(config: Config) -> tuple[int, ...]:
@@ -151,7 +172,7 @@ def advance(state: State, params: Params, config: Config) -> State:
 
             P, acc_bodies = wcsph.advance(state.particles, state.nbrs, params, config, bodies=bodies)
             load = boundary_particles.from_accelerations(P, acc_bodies, bodies, state.blocks, params, config)
-            state = state.replace(particles=P, coupling=load)
+            state = _guard(state.replace(particles=P, coupling=load), params, config, kick=True)
         else:
             P = _fluid(config).advance(state.particles, state.nbrs, params, config)
             state = _fluid_load(state.replace(particles=P), params, config, kick=True)

@@ -224,6 +224,10 @@ class Config:
         cfl: Courant number used for the host time step and the in-jit stability check.
         blocks: the static block description (``rockjax.blocks.BlockConfig``), or None for no blocks.
         coupling: how water and blocks exchange forces (``Coupling``); NONE when either is absent.
+        coupling_guard: with ``Coupling.BOUNDARY_PARTICLES``, also apply the seed Eq 22 penalty
+            (``coupling.penalty``, within ``CouplingParams.interaction_distance`` of a face, dx/4 by
+            default) so that no water particle is pressed between a block's particles into it; the
+            reaction goes to the block. Ignored by the other couplings.
 
     A scene with no particles (``n_fluid == n_wall == 0``, blocks only) has ``grid=None`` and
     traces no SPH code; a scene with ``blocks=None`` traces no block code.
@@ -249,6 +253,7 @@ class Config:
     cfl: float = 0.25
     blocks: Optional[Any] = None
     coupling: Coupling = Coupling.NONE
+    coupling_guard: bool = True
 
     def __post_init__(self):
         # Host-side checks of the static description; scene builders catch most problems earlier.
@@ -365,7 +370,8 @@ class CouplingParams:
         penalty_stiffness: K_S of seed Eq 22, per unit fluid mass [1/s^2] (the force on a particle of
             mass m is ``m (K_S d - K_D v_n) n``, so one value fits every resolution).
         penalty_damping: K_D of seed Eq 22, per unit fluid mass [1/s].
-        interaction_distance: distance from a block face within which the penalty acts [m].
+        interaction_distance: distance from a block face within which the penalty acts [m]
+            (with ``Coupling.BOUNDARY_PARTICLES``: the guard's, ``Config.coupling_guard``).
     """
 
     penalty_stiffness: jax.Array

@@ -48,6 +48,8 @@ def test_newton_third_law(coupling):
         only = pr._replace(mask=pr.mask & (P.body[pr.idx] == 0))
         a = wcsph.acceleration(only, P.v, P.rho, P.p, P.vol, P.kind, params, config)[:nf] - params.gravity
         a = jnp.where((P.kind[:nf] == rj.Kind.FLUID)[:, None], a, 0.0)
+        assert config.coupling_guard  # the default: the penalty within dx/4 of a face is part of the exchange
+        a = a + jnp.sum(penalty.accelerations(P, B, params, config)[0], axis=1)
     f = m[:, None] * a
     n_active = int(jnp.sum(jnp.any(f != 0, axis=1)))
     assert n_active > 20, f"the test needs particles in contact with the block ({n_active})"
@@ -66,14 +68,28 @@ def test_boundary_particle_load_of_a_step_is_the_reaction():
     """A WCSPH step sums the block particles' loads in its own momentum pass: they equal minus the
     force that pass gave the fluid (``boundary_particles.load`` re-evaluated at the step's new
     positions, densities and pressures with the mid-step velocities ``v' - dt/2 a'`` that the
-    viscous term saw), to float32 round-off."""
+    viscous term saw), to float32 round-off. The guard (``Config.coupling_guard``, the penalty
+    within dx/4 of a face, applied after that pass) adds exactly minus the momentum it gives the
+    fluid."""
     from rockjax.coupling import boundary_particles
 
     scene, state = _submerged(Coupling.BOUNDARY_PARTICLES)
-    config, params = scene.config, scene.params
+    config, params = scene.config.replace(coupling_guard=False), scene.params
     from rockjax.step import advance
 
     new = advance(state, params, config)
+    guarded = advance(state, params, scene.config)
+    nf = config.n_fluid
+    m = (params.fluid.rho0 * new.particles.vol[:nf])[:, None]
+    f_guard = m * (guarded.particles.v[:nf] - new.particles.v[:nf]) / config.dt  # the guard's force on the fluid
+    assert float(jnp.max(jnp.abs(guarded.particles.x - new.particles.x))) == 0.0  # applied after the SPH pass
+    assert int(jnp.sum(jnp.any(f_guard != 0, axis=1))) > 0, "the test needs water within dx/4 of the box"
+    r = new.particles.x[:nf] - new.blocks.x[0]
+    g_scale = float(jnp.sum(jnp.linalg.norm(f_guard, axis=1)))
+    np.testing.assert_allclose(np.asarray(guarded.coupling.force[0] - new.coupling.force[0]),
+                               -np.asarray(jnp.sum(f_guard, 0)), rtol=0, atol=1e-4 * g_scale)
+    np.testing.assert_allclose(np.asarray(guarded.coupling.torque[0] - new.coupling.torque[0]),
+                               -np.asarray(jnp.sum(jnp.cross(r, f_guard), 0)), rtol=0, atol=1e-4 * g_scale * 0.2)
     P = new.particles
     fluid = (P.kind == rj.Kind.FLUID)[:, None]
     v_half = jnp.where(fluid, P.v - 0.5 * config.dt * P.a, P.v)

@@ -109,6 +109,23 @@ def test_box_off_ramp_geometry(ramp):
     assert ramp.config.coupling == rj.Coupling.PENALTY
 
 
+@pytest.mark.parametrize("extra, guard", [("", True), ("guard = false\n", False)])
+def test_coupling_guard_key(extra, guard):
+    """``[coupling] guard`` (boundary particles: the seed Eq 22 penalty within dx/4 of a face as
+    well, default on) reaches ``Config.coupling_guard``; the guard's distance defaults to dx/4, the
+    penalty coupling's to dx/2."""
+    text = (ROOT / "examples" / "box_off_ramp.toml").read_text()
+    assert '[coupling]\nmethod = "penalty"\n' in text
+    bp = text.replace('[coupling]\nmethod = "penalty"\n', '[coupling]\nmethod = "boundary_particles"\n' + extra)
+    scene = load(bp, dx=0.05).scene
+    assert scene.config.coupling == rj.Coupling.BOUNDARY_PARTICLES and scene.config.coupling_guard is guard
+    assert float(scene.params.coupling.interaction_distance) == pytest.approx(0.25 * 0.05)
+    pen = load(text.replace('[coupling]\nmethod = "penalty"\n', '[coupling]\nmethod = "penalty"\ninteraction_distance = 0.02\n'),
+               dx=0.05).scene
+    assert float(pen.params.coupling.interaction_distance) == pytest.approx(0.02)
+    assert float(load(text, dx=0.05).scene.params.coupling.interaction_distance) == pytest.approx(0.5 * 0.05)
+
+
 def test_builtin_form_equals_builder():
     text = '[scene]\nbuiltin = "hydrostatic_tank"\n[scene.options]\ndx = 0.05\ndepth = 0.2\nscheme = "seed"\n'
     a = load_scene(text)

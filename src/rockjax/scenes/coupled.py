@@ -32,17 +32,22 @@ __all__ = ["coupled_scene", "sliding_wedge", "floating_box", "block_drop", "pist
 
 
 def coupling_params(*, dx: float, c0: float, stiffness: float | None = None, damping: float | None = None,
-                    interaction_distance: float | None = None) -> CouplingParams:
+                    interaction_distance: float | None = None,
+                    coupling: Coupling = Coupling.PENALTY) -> CouplingParams:
     """Seed Eq 22 constants for resolution ``dx`` [m] and sound speed ``c0`` [m/s].
 
     Defaults: ``r0 = dx / 2`` (half the particle spacing: a particle at rest against a face then
     fills the space up to it, as a lattice particle of volume dx^3 would, so the displaced volume
-    -- hence buoyancy -- is unbiased); ``K_S = (2 c0 / dx)^2`` [1/s^2], so a particle arriving
+    -- hence buoyancy -- is unbiased); with ``Coupling.BOUNDARY_PARTICLES``, where the penalty is
+    only a guard (``Config.coupling_guard``), ``r0 = dx / 4``: water at rest stays ~dx/2 from a
+    face (a spacing from the block's outer particle layer, dx/2 deep), so the guard acts only on
+    water pressed closer; ``K_S = (2 c0 / dx)^2`` [1/s^2], so a particle arriving
     at the flow's largest speed (~c0 / 10) stops within ~r0 / 10 and the penalty oscillation
     ``sqrt(K_S) dt`` stays ~0.65 at the fluid's Courant step; ``K_D = sqrt(K_S)`` [1/s] (half of
     critical damping).
     """
-    r0 = 0.5 * dx if interaction_distance is None else _positive("interaction_distance", interaction_distance)
+    r0_default = 0.25 * dx if coupling == Coupling.BOUNDARY_PARTICLES else 0.5 * dx
+    r0 = r0_default if interaction_distance is None else _positive("interaction_distance", interaction_distance)
     ks = (2.0 * c0 / dx) ** 2 if stiffness is None else _positive("penalty stiffness", stiffness)
     kd = math.sqrt(ks) if damping is None else float(damping)
     if kd < 0:
@@ -65,8 +70,8 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
                   alpha: float = 0.02, nu: float = 1e-6, delta: float = 0.1, wall_viscosity: float = 1.0,
                   skin_factor: float = 0.6,
                   rebuild_every: int = 8, cfl: float = 0.25, scheme: Scheme = Scheme.WCSPH,
-                  velocities=None, joint_water: bool = False, block_kwargs: dict | None = None,
-                  meta: dict | None = None) -> Scene:
+                  velocities=None, joint_water: bool = False, coupling_guard: bool = True,
+                  block_kwargs: dict | None = None, meta: dict | None = None) -> Scene:
     """Assemble a scene of water (optional) and blocks from host data.
 
     Args:
@@ -81,6 +86,8 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
             the particles cannot put into a joint thinner than dx. Needs ``still_level``. The
             joint aperture is dx/2 (faces closer than that carry it, fading out as they part);
             ``block_kwargs`` may override ``joint_water_level`` / ``joint_aperture``.
+        coupling_guard: with boundary particles, the seed Eq 22 penalty within dx/4 of a face as
+            well (``Config.coupling_guard``): no water pressed into a block between its particles.
         block_kwargs: extra keywords for ``blocks.make_blocks`` (stiffness, damping, ...).
     """
     blocks = _blocks_api()
@@ -140,7 +147,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         body = np.concatenate([body] + bodies)
         x_body = np.concatenate([x_body] + xb)
     if coupling != Coupling.NONE:
-        params = params.replace(coupling=coupling_params(dx=dx, c0=c0))
+        params = params.replace(coupling=coupling_params(dx=dx, c0=c0, coupling=coupling))
     L = particle_layout(dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=domain_lo, domain_hi=domain_hi,
                         periodic=periodic, surface_z=still_level, c0=c0, scheme=scheme, h_factor=h_factor,
                         skin_factor=skin_factor)
@@ -166,7 +173,8 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     config = Config(n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
                     rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap,
                     wall_pair_capacity=L["wall_pair_capacity"], scheme=scheme, kernel=KernelKind.WENDLAND_C2, viscosity=Viscosity.ARTIFICIAL, wall_model=WallModel.ADAMI,
-                    density_diffusion=DensityDiffusion.FOURTAKAS, cfl=cfl, blocks=bconfig, coupling=coupling)
+                    density_diffusion=DensityDiffusion.FOURTAKAS, cfl=cfl, blocks=bconfig, coupling=coupling,
+                    coupling_guard=bool(coupling_guard))
     state = make_state(config=config, x=x, kind=kind, vol=vol, rho=rho)
     if coupling == Coupling.BOUNDARY_PARTICLES:
         body_all = np.concatenate([np.full(len(fluid_x), -1), body]).astype(np.int32)

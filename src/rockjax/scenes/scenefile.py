@@ -85,7 +85,9 @@ Form (b): a general scene
 
     [coupling]                         # water <-> moving blocks
     method = "penalty"                 # or "boundary_particles"; stiffness [1/s^2],
-                                       # damping [1/s], interaction_distance [m] (penalty, seed Eq 22)
+                                       # damping [1/s], interaction_distance [m] (penalty, seed Eq 22;
+                                       # default dx/2); guard (boundary_particles: that penalty
+                                       # within dx/4 of a face too, default true)
     [[gauge]]                          # free-surface elevation at (x, y)
     name = "near"
     xy = [1.0, 0.2]
@@ -330,7 +332,7 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
             "density_diffusion": _choice(_enum_values(DensityDiffusion), "fourtakas")},
     "coupling": {"method": _choice(("penalty", "boundary_particles"), "penalty"),
                  "stiffness": _num(unit="1/s^2", **_POS), "damping": _num(unit="1/s", **_NONNEG),
-                 "interaction_distance": _num(unit="m", **_POS)},
+                 "interaction_distance": _num(unit="m", **_POS), "guard": _Key("bool", True)},
 }
 _ARRAYS = ("water", "fixed", "block", "gauge")
 _FIXED_KEYS = {"box": {"lo", "hi"}, "plane": {"point", "normal"}, "mesh": {"file", "scale", "offset", "convexity_tol"}}
@@ -964,7 +966,8 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
                               motion=motion, block_density=dens, friction_angle_deg=mat["friction_angle_deg"],
                               fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,
                               periodic=tuple(periodic), still_level=still, coupling=Coupling(cpl["method"]), c0=c0,
-                              scheme=scheme, velocities=vel, joint_water=mat["joint_water"], block_kwargs=block_kwargs,
+                              scheme=scheme, velocities=vel, joint_water=mat["joint_water"], coupling_guard=cpl["guard"],
+                              block_kwargs=block_kwargs,
                               meta=meta, **common)
     except ValueError as exc:
         raise ValueError(f"{ctx.source}: building the scene failed: {exc}") from exc
@@ -972,5 +975,5 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
                                                                                "interaction_distance")):
         scene = scene.replace(params=scene.params.replace(coupling=coupling_params(
             dx=dx, c0=c0, stiffness=cpl["stiffness"], damping=cpl["damping"],
-            interaction_distance=cpl["interaction_distance"])))
+            interaction_distance=cpl["interaction_distance"], coupling=Coupling(cpl["method"]))))
     return scene
