@@ -3,7 +3,9 @@
 For each resolution the same scene is timed three ways, with the same state: the full coupled
 step; the fluid alone (blocks and coupling removed from the Config, so they are not traced);
 the blocks alone (no particles); and the blocks alone with the joint patch built from all
-contact slots instead of the gathered ``joint_patch_points`` (``ms_per_step_blocks_all_slots``). coupling = full - fluid - blocks. Each timing is the best of
+contact slots instead of the gathered ``joint_patch_points`` (``ms_per_step_blocks_all_slots``);
+with boundary particles also the full step without the guard (``Config.coupling_guard``:
+``ms_per_step_guard`` = full - full without it). coupling = full - fluid - blocks. Each timing is the best of
 ``--reps`` runs of one jitted chunk of ``rebuild_every`` steps (list rebuild included), the three
 variants interleaved round by round.
 JSON lines out; compare the shares within one run (the machine is shared and noisy).
@@ -62,19 +64,25 @@ def bench(dx: float, coupling: str, reps: int) -> dict:
     # of the active points into ``joint_patch_points``: the cost before 2026-11-25's change)
     c_all = c_blocks.replace(blocks=dataclasses.replace(c.blocks, joint_patch_points=c.blocks.contact_slots))
     p_blocks = p.replace(fluid=None, coupling=None)
-    t_full, t_fluid, t_blocks, t_all = _timed([(full, state, p),
-                                               (chunk(c_fluid), s_fluid, p.replace(blocks=None, coupling=None)),
-                                               (chunk(c_blocks), s_blocks, p_blocks),
-                                               (chunk(c_all), s_blocks, p_blocks)], reps)
+    cases = [(full, state, p), (chunk(c_fluid), s_fluid, p.replace(blocks=None, coupling=None)),
+             (chunk(c_blocks), s_blocks, p_blocks), (chunk(c_all), s_blocks, p_blocks)]
+    guard = c.coupling == Coupling.BOUNDARY_PARTICLES and c.coupling_guard
+    if guard:  # the full step once more without the guard (the penalty within dx/4 of the faces)
+        cases.append((chunk(c.replace(coupling_guard=False)), state, p))
+    times = _timed(cases, reps)
+    t_full, t_fluid, t_blocks, t_all = times[:4]
     per = lambda t: 1e3 * t / k  # ms per step
     t_coup = max(t_full - t_fluid - t_blocks, 0.0)
+    extra = {"coupling_guard": guard}
+    if guard:
+        extra.update(ms_per_step_full_without_guard=per(times[4]), ms_per_step_guard=per(t_full - times[4]))
     return {"bench": "coupled_step", "dx": dx, "coupling": coupling, "n_fluid": c.n_fluid, "n_wall": c.n_wall,
             "n_blocks": c.blocks.n_blocks, "joint_water": c.blocks.joint_water, "ms_per_step_full": per(t_full), "ms_per_step_fluid": per(t_fluid),
             "ms_per_step_blocks": per(t_blocks), "ms_per_step_coupling": per(t_coup),
             "joint_patch_points": c.blocks.joint_patch_points, "ms_per_step_blocks_all_slots": per(t_all),
             "share_blocks_plus_coupling": (t_blocks + t_coup) / t_full,
             "fluid_particle_steps_per_s": c.n_fluid * k / t_full, "compile_plus_first_s": compile_s,
-            "backend": jax.default_backend(), "load": os.getloadavg()[0]}
+            **extra, "backend": jax.default_backend(), "load": os.getloadavg()[0]}
 
 
 def main():

@@ -381,10 +381,11 @@ def sec_coupled(doc: Doc):
     rows = [[r.get("coupling"), r.get("dx"), r.get("n_fluid"), r.get("n_wall"), r.get("n_blocks"),
              r.get("ms_per_step_full"), r.get("ms_per_step_fluid"), r.get("ms_per_step_blocks"),
              r.get("ms_per_step_coupling"), 100 * r["share_blocks_plus_coupling"], r.get("fluid_particle_steps_per_s"),
-             r.get("joint_patch_points", "-"), r.get("ms_per_step_blocks_all_slots", "-"), r.get("load")] for r in recs]
+             r.get("joint_patch_points", "-"), r.get("ms_per_step_blocks_all_slots", "-"),
+             r.get("ms_per_step_guard", "-"), r.get("load")] for r in recs]
     doc.p(table(["coupling", "dx [m]", "n_fluid", "n_wall", "blocks", "full ms/step", "fluid ms", "blocks ms",
                  "coupling ms", "blocks+coupling %", "fluid p-steps/s", "joint patch slots",
-                 "blocks ms, patch from all slots", "load"], rows))
+                 "blocks ms, patch from all slots", "of which guard ms", "load"], rows))
 
 
 def sec_grad(doc: Doc):
@@ -499,10 +500,15 @@ def sec_wedge_inside(doc: Doc):
         rows.append([r.get("tag"), r.get("n_boundary"), r.get("frames_with_water_inside"),
                      sum(f["depth_dx"] > 0.5 for f in fr), r.get("worst_depth_dx"),
                      worst.get("t"), worst.get("body_xyz"), max((f["depth_dx"] for f in late), default=0.0),
-                     max((f["n_inside"] for f in late), default=0), r.get("date")])
+                     max((f["n_inside"] for f in late), default=0), r.get("closest_approach_dx", "-"),
+                     r.get("guard_load_max_N", "-"), r.get("guard_load_late_N", "-"), r.get("date")])
+    doc.p("Since the guard (`Config.coupling_guard`): `closest` = the closest water to the faces over all frames "
+          "(dx, negative inside); `guard load` = |F| of the penalty within dx/4 (evaluated whether it is on or "
+          "not): its largest, and its mean over the last 0.3 s.")
     doc.p(table(["boundary-particle sampling", "boundary particles", "frames with water inside",
                  "frames with water deeper than dx/2", "worst / dx", "at t s", "where (body frame)",
-                 "at rest: worst / dx", "at rest: particles inside", "date"], rows))
+                 "at rest: worst / dx", "at rest: particles inside", "closest / dx", "guard load max N",
+                 "guard load at rest N", "date"], rows))
 
 
 def sec_energy_creep(doc: Doc):

@@ -43,49 +43,62 @@ def accelerations(P: Particles, blocks, params: Params, config: Config):
     Returns:
         ``acc`` [n_fluid, Bc, 3] m/s^2, acceleration of fluid particle i due to coupled block b;
         ``r`` [n_fluid, Bc, 3] m, the lever arm x_i - X_b; ``idx`` the coupled block indices.
+
+    Per block, the nearest face is found by a static loop over the faces on [n_fluid] arrays
+    (signed distance and face index), then its world normal is gathered from an [F, 3] table.
+    Measured on CPU (sliding wedge, 4.3k fluid particles): 0.08 ms for the load, against 0.4 ms
+    as [n_fluid, Bc, F] einsums with an argmax gather, and 1.4 ms with the face loop carrying
+    the normal's components (XLA fuses that chain into every component of the consumers).
     """
     idx = coupled_blocks(config)
     nf = config.n_fluid
     cp = params.coupling
-    sel = jnp.asarray(idx, jnp.int32)
-    X = blocks.x[sel]  # [Bc, 3]
-    R = quat_matrix(blocks.q[sel])  # [Bc, 3, 3]
-    V = blocks.v[sel]
-    W = blocks.omega[sel]
-    normals = blocks.shape.face_normal[sel]  # [Bc, F, 3] body frame
-    offsets = blocks.shape.face_offset[sel]  # [Bc, F]
-    fmask = blocks.shape.face_mask[sel]
     x = P.x[:nf]
-    r = x[:, None, :] - X[None]  # [nf, Bc, 3]
-    if config.grid is not None and any(config.grid.periodic):
-        L = jnp.asarray(config.grid.lengths, x.dtype)
-        per = jnp.asarray(config.grid.periodic)
-        r = jnp.where(per, r - L * jnp.round(r / L), r)
-    r_body = jnp.einsum("nbk,bkj->nbj", r, R)  # R^T r
-    s_f = jnp.einsum("nbj,bfj->nbf", r_body, normals) - offsets[None]
-    s_f = jnp.where(fmask[None], s_f, -jnp.inf)
-    face = jnp.argmax(s_f, axis=-1)  # [nf, Bc]
-    s = jnp.max(s_f, axis=-1)
-    n_body = jnp.take_along_axis(normals[None], face[..., None, None], axis=2)[..., 0, :]  # [nf, Bc, 3]
-    n = jnp.einsum("bjk,nbk->nbj", R, n_body)
-    d = cp.interaction_distance - s
-    v_surf = V[None] + jnp.cross(W[None], r)
-    vn = jnp.sum((P.v[:nf, None, :] - v_surf) * n, -1)
-    mag = cp.penalty_stiffness * d - cp.penalty_damping * vn
-    fluid = (P.kind[:nf] == Kind.FLUID)[:, None]
-    on = fluid & (d > 0)
-    mag = jnp.where(on, jnp.maximum(mag, 0.0), 0.0)
-    return mag[..., None] * n, r, idx
+    v = P.v[:nf]
+    fluid = P.kind[:nf] == Kind.FLUID
+    R_all = quat_matrix(blocks.q[jnp.asarray(idx, jnp.int32)])  # [Bc, 3, 3]
+    n_faces = blocks.shape.face_normal.shape[1]
+    acc, lever = [], []
+    for k, b in enumerate(idx):
+        r = x - blocks.x[b]  # [nf, 3]
+        if config.grid is not None and any(config.grid.periodic):
+            L = jnp.asarray(config.grid.lengths, x.dtype)
+            r = jnp.where(jnp.asarray(config.grid.periodic), r - L * jnp.round(r / L), r)
+        normals = blocks.shape.face_normal[b] @ R_all[k].T  # [F, 3] world frame
+        offsets, fmask = blocks.shape.face_offset[b], blocks.shape.face_mask[b]
+        s = jnp.full((nf,), -jnp.inf, x.dtype)  # signed distance to the block
+        face = jnp.zeros((nf,), jnp.int32)
+        for f in range(n_faces):  # the nearest face: the largest signed distance (the first on ties)
+            s_f = r[:, 0] * normals[f, 0] + r[:, 1] * normals[f, 1] + r[:, 2] * normals[f, 2] - offsets[f]
+            better = fmask[f] & (s_f > s)
+            s = jnp.where(better, s_f, s)
+            face = jnp.where(better, f, face)
+        n = normals[face]  # [nf, 3]
+        v_surf = blocks.v[b] + jnp.cross(blocks.omega[b], r)
+        vn = jnp.sum((v - v_surf) * n, axis=-1)
+        d = cp.interaction_distance - s
+        mag = cp.penalty_stiffness * d - cp.penalty_damping * vn
+        mag = jnp.where(fluid & (d > 0), jnp.maximum(mag, 0.0), 0.0)
+        acc.append(mag[:, None] * n)
+        lever.append(r)
+    return jnp.stack(acc, axis=1), jnp.stack(lever, axis=1), idx
 
 
 def _reaction(P: Particles, acc, r, idx, params: Params, config: Config, n_blocks: int) -> CouplingState:
-    m = (params.fluid.rho0 * P.vol[: config.n_fluid])[:, None, None]
-    f_on_fluid = m * acc  # [nf, Bc, 3]
-    force_c = -jnp.sum(f_on_fluid, axis=0)
-    torque_c = -jnp.sum(jnp.cross(r, f_on_fluid), axis=0)
+    """Minus the sums of the penalty forces on the fluid and their moments, per coupled block
+    (reduced as [n_fluid] component arrays: a reduction over the long axis of an [n_fluid, Bc, 3]
+    array was ~10x slower on CPU)."""
+    m = params.fluid.rho0 * P.vol[: config.n_fluid]
+    force, torque = [], []
+    for k in range(len(idx)):
+        f = [m * acc[:, k, j] for j in range(3)]  # force on the fluid [N]
+        rk = [r[:, k, j] for j in range(3)]
+        force.append(jnp.stack([-jnp.sum(f[j]) for j in range(3)]))
+        torque.append(jnp.stack([-jnp.sum(rk[1] * f[2] - rk[2] * f[1]), -jnp.sum(rk[2] * f[0] - rk[0] * f[2]),
+                                 -jnp.sum(rk[0] * f[1] - rk[1] * f[0])]))
     sel = jnp.asarray(idx, jnp.int32)
     zero = jnp.zeros((n_blocks, 3), acc.dtype)
-    return CouplingState(force=zero.at[sel].set(force_c), torque=zero.at[sel].set(torque_c))
+    return CouplingState(force=zero.at[sel].set(jnp.stack(force)), torque=zero.at[sel].set(jnp.stack(torque)))
 
 
 def load(P: Particles, blocks, params: Params, config: Config) -> CouplingState:
