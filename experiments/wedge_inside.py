@@ -11,8 +11,9 @@ boundary-particle lattice. Also the count of boundary particles, and of the fram
 water got past their outer layer (deeper than dx/2, the depth of that layer since 2026-11-25's
 face-following sampling). With ``--no-guard`` the penalty guard within dx/4 of the faces
 (``Config.coupling_guard``, on by default since 2026-11-25) is switched off; the record also
-gives the closest approach of the water to the faces and the guard's share of the load. JSON
-lines out (``--out`` appends).
+gives the closest approach of the water to the faces and the guard's share of the load, and
+the same for the fixed slope and floor (``scenes.shapes.shell``'s walls). JSON lines out
+(``--out`` appends).
 
     python experiments/wedge_inside.py --out experiments/results/wedge_inside.jsonl   # ~1-5 min
 """
@@ -75,11 +76,15 @@ def main():
     R0 = np.asarray(quat_matrix(B0.q[:1]))[0]
     frames = []
     closest = np.inf
+    fixed = {b: (np.inf, 0) for b, m in enumerate(scene.config.blocks.motion) if m.name == "FIXED"}
     for k in range(len(res.times)):
         Bk = B0.replace(x=jnp.asarray(res.frames["block_x"][k]), q=jnp.asarray(res.frames["block_q"][k]))
         xf = np.asarray(res.frames["x"][k])[fluid]
         d = np.asarray(_inside_distance(xf, Bk, 0))
         closest = min(closest, float(d.min()))
+        for b in fixed:  # the fixed slope and floor (met by the water as wall particles)
+            db = np.asarray(_inside_distance(xf, Bk, b))
+            fixed[b] = (min(fixed[b][0], float(db.min())), max(fixed[b][1], int((db < 0).sum())))
         if d.min() >= 0:
             continue
         i = int(np.argmin(d))
@@ -96,6 +101,9 @@ def main():
                guard=not a.no_guard,
                # signed distance of the closest water particle to the wedge's faces over all frames [dx]
                closest_approach_dx=round(closest / a.dx, 3),
+               # per fixed block (1: the slope, 2: the floor): closest water over the frames [dx], most inside at once
+               fixed_closest_dx={str(b): round(v[0] / a.dx, 3) for b, v in fixed.items()},
+               fixed_most_inside={str(b): v[1] for b, v in fixed.items()},
                # the guard's load |F| (computed whether it is on or not) against the whole load on the
                # wedge: its largest over the frames, and its mean over the last 0.3 s (the wedge at rest)
                guard_load_max_N=round(float(guard.max()), 3), guard_load_late_N=round(float(guard[late].mean()), 4),
