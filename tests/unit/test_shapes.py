@@ -78,17 +78,3 @@ def test_spacing_and_cover_of_the_slope(slope_walls):
     expected = 0.2 * 0.6 * LAYERS * DX / DX**3
     assert abs(patch.sum() / expected - 1) < 0.05, (patch.sum(), expected)
 
-
-def test_water_starts_a_spacing_from_the_walls(slope_walls):
-    """``fill`` keeps the water at least dx/2 from an inclined face (whose outer wall layer is dx/2
-    behind it), so no water particle starts closer than dx to a wall particle -- as on aligned
-    walls; the water lattice's staircase leaves it 1-1.8 dx from the slope's outer layer."""
-    from rockjax.scenes.shapes import fill
-
-    hs, walls, _ = slope_walls
-    water = fill([-0.6, 0.0, -0.4], [1.2, 0.4, 0.2], DX, hs + [plane([0, 0, 1], [0, 0, 0])])
-    assert clearance(water, hs[:1]).min() >= 0.5 * DX * (1 - 1e-9)
-    d, _ = cKDTree(walls).query(water)
-    assert d.min() >= DX * (1 - 1e-9), d.min() / DX
-    loose = fill([-0.6, 0.0, -0.4], [1.2, 0.4, 0.2], DX, hs + [plane([0, 0, 1], [0, 0, 0])], inclined_margin=0.0)
-    assert cKDTree(walls).query(loose)[0].min() < 0.9 * DX  # the check can fail
