@@ -540,6 +540,21 @@ def sec_energy_creep(doc: Doc):
                      "kinetic end", "date"], rows))
 
 
+def sec_piston_walls(doc: Doc):
+    doc.h("Piston flume: beach walls and the start transient")
+    recs = doc.records("piston_walls.jsonl", "python experiments/piston_walls.py --out experiments/results/piston_walls.jsonl")
+    if recs is None:
+        return
+    doc.p("`tests/coupling/test_piston.py`'s flume (kh = 1, dx = 0.03 m) with the beach's walls following it "
+          "(`scenes.shapes.shell`) or a lattice staircase: H/S at 2 depths from the paddle fitted from the raw "
+          "gauge record and from the record minus the same flume's with the paddle still; the still run's "
+          "gauge over the fit window (the water on the beach slumps at the start).")
+    rows = [[r["walls"], r["H_over_S_raw"], r["H_over_S_minus_still"], r["theory"], r["still_ptp_window_mm"],
+             r["still_std_window_mm"], r.get("date")] for r in recs if r.get("bench") == "piston_walls"]
+    doc.p(table(["beach walls", "H/S raw", "H/S minus still", "linear theory", "still ptp mm", "still std mm", "date"],
+                rows))
+
+
 def sec_hydrostatic_rest(doc: Doc):
     doc.h("A layer of water at rest: lattice and pressure (h = 1.3 vs 1.5 dx)")
     recs = doc.records("hydrostatic_rest.jsonl",
@@ -585,7 +600,7 @@ def sec_stress(doc: Doc):
 
 
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_calibration, sec_piston,
-            sec_wedge, sec_wedge_inside, sec_energy_creep, sec_hydrostatic_rest, sec_stress]
+            sec_wedge, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_hydrostatic_rest, sec_stress]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:
