@@ -12,7 +12,8 @@ number of steps, and ensemble throughput. JSON lines on stdout.
    running the same members one by one with a jitted single-member rollout: scenario-steps/s.
 
 Scenes (``--scene``): ``dam`` (default: a 0.3 x 0.3 x 0.5 m dam break at dx = 0.05 m, fluid
-only), ``incline`` (blocks only), ``wedge`` (coupled, dx = 0.05 m). ``--f64`` for float64.
+only; ``--dx 0.025``: 2 880 fluid), ``incline`` (blocks only), ``wedge`` (coupled, dx = 0.05 m).
+``--f64`` for float64.
 
     .venv/bin/python experiments/bench_grad.py [--scene dam] [--base-steps 16] [--f64]
 """
@@ -26,13 +27,13 @@ import statistics
 import time
 
 
-def build(name: str):
+def build(name: str, dx: float = 0.05):
     import numpy as np
 
     from rockjax import scenes
 
     if name == "dam":
-        return scenes.dam_break(dx=0.05, column_length=0.3, column_width=0.3, column_height=0.5, tank_length=0.8,
+        return scenes.dam_break(dx=dx, column_length=0.3, column_width=0.3, column_height=0.5, tank_length=0.8,
                                 tank_width=0.3)
     if name == "wedge":
         return scenes.sliding_wedge(dx=0.05, slope_angle_deg=40.0, block_length=0.2, block_width=0.2,
@@ -84,6 +85,46 @@ def timed(fn, *args, repeats: int):
     return statistics.median(ts)
 
 
+def step_vjp(config, state, params, repeats: int) -> dict:
+    """One step (``rockjax.step.advance``): forward and forward + vector-Jacobian product (best of
+    ``5 * repeats`` runs: the per-step times are short and the machine is shared), and, in each
+    compiled program, the number of instructions producing an [n_fluid, K] pair array (what a pass
+    materialises in memory) and of scatter instructions (XLA's transpose of a gather)."""
+    import re
+
+    import jax
+
+    from rockjax.step import advance
+
+    def fwd(s, p):
+        return advance(s, p, config)
+
+    def vjp(s, p):
+        out, pull = jax.vjp(fwd, s, p)
+        return pull(out)
+
+    nf, K = config.n_fluid, config.neighbour_capacity
+    pair_shapes = (f"[{nf},{K}]", f"[{nf * K},1]", f"[{nf * K}]")
+    out = dict(bench="step_vjp", neighbour_capacity=K, row_tile=config.effective_row_tile)
+    for name, fn in (("forward", fwd), ("vjp", vjp)):
+        f = jax.jit(fn)
+        hlo = f.lower(state, params).compile().as_text()
+        entry = hlo[hlo.index("ENTRY"):]
+        defs = re.findall(r"^\s*(?:ROOT )?%\S+ = (\S+) ([\w-]+)\(", entry, flags=re.M)
+        out[f"{name}_pair_arrays"] = sum(1 for shp, op in defs if op not in ("parameter", "bitcast")
+                                         and any(p in shp for p in pair_shapes))
+        out[f"{name}_scatters"] = len(re.findall(r" scatter\(", hlo))
+        ts = []
+        jax.block_until_ready(f(state, params))
+        for _ in range(5 * repeats):
+            t = time.perf_counter()
+            jax.block_until_ready(f(state, params))
+            ts.append(time.perf_counter() - t)
+        out[f"{name}_ms"] = 1e3 * min(ts)
+    out["vjp_over_forward"] = out["vjp_ms"] / out["forward_ms"]
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="dam", choices=["dam", "incline", "wedge"])
@@ -93,11 +134,15 @@ def main(argv=None):
     ap.add_argument("--ensemble-steps", type=int, default=None, help="steps per member (default T)")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--f64", action="store_true")
+    ap.add_argument("--dx", type=float, default=0.05, help="particle spacing of the dam scene m (0.05: 360 fluid)")
     ap.add_argument("--skip-grad", action="store_true")
     ap.add_argument("--skip-ensemble", action="store_true")
     ap.add_argument("--levels", type=int, default=2, choices=[1, 2, 3],
                     help="checkpoint levels (rollout's checkpoint_levels): 1 chunks, 2 + steps, 3 + blocks")
     ap.add_argument("--chunk", type=int, default=None, help="blocks per checkpointed chunk (default sqrt)")
+    ap.add_argument("--step-vjp", action="store_true",
+                    help="only the per-step probe: one step's forward and vector-Jacobian product (time, and the "
+                         "[n_fluid, K] arrays and scatter-adds of the compiled programs)")
     ap.add_argument("--time-plain", action="store_true",
                     help="also time the un-checkpointed gradient (memory grows like T)")
     args = ap.parse_args(argv)
@@ -112,7 +157,7 @@ def main(argv=None):
     from rockjax.calibrate import observed
     from rockjax.rollout import default_chunk
 
-    scene = build(args.scene)
+    scene = build(args.scene, args.dx)
     config = scene.config
     k = config.rebuild_every
     T = args.base_steps or 2 * k
@@ -121,6 +166,9 @@ def main(argv=None):
                 n_blocks=(config.blocks.n_blocks if config.blocks else 0), dtype="f64" if args.f64 else "f32",
                 dt=config.dt, rebuild_every=k, device=str(jax.devices()[0].platform))
     state0 = jax.jit(prime, static_argnums=2)(scene.state, scene.params, config)
+    if args.step_vjp:
+        print(json.dumps(dict(base, **step_vjp(config, state0, scene.params, args.repeats))), flush=True)
+        return
 
     if not args.skip_grad:
         for mult in args.multiples:

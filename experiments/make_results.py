@@ -399,6 +399,20 @@ def sec_grad(doc: Doc):
         recs = load(os.path.join(doc.results, name))
         g = [r for r in recs if r.get("bench") == "grad"]
         e = [r for r in recs if r.get("bench") == "ensemble"]
+        sv = [r for r in recs if r.get("bench") == "step_vjp"]
+        if sv:
+            doc.p(f"`{name}` (`bench_grad.py --step-vjp --dx ...`): one WCSPH step of the dam scene, its forward and "
+                  "its forward + vector-Jacobian product (best of the runs; the VJP includes the forward), and in each "
+                  "compiled program the instructions producing an [n_fluid, K] pair array (what a pass writes to "
+                  "memory) and the scatter instructions (XLA's transpose of each neighbour gather, serial on CPU). "
+                  "The backward writes ~6x the pair arrays of the forward, so a step's VJP costs ~5x its forward "
+                  "while they stay in cache and more beyond (the 2-level checkpointed gradient adds two forward "
+                  "recomputations on top: ratios in the tables above).")
+            rows = [[r["n_fluid"], r["n_wall"], r.get("neighbour_capacity"), r["dtype"], r["forward_ms"], r["vjp_ms"],
+                     r["vjp_over_forward"], r.get("forward_pair_arrays"), r.get("vjp_pair_arrays"),
+                     r.get("forward_scatters"), r.get("vjp_scatters")] for r in sv]
+            doc.p(table(["n_fluid", "n_wall", "K", "dtype", "step forward ms", "step VJP ms", "VJP / forward",
+                         "pair arrays (forward)", "pair arrays (VJP)", "scatters (forward)", "scatters (VJP)"], rows))
         if g:
             r0 = g[0]
             doc.p(f"`{name}`: scene {r0.get('scene')}, {r0.get('n_fluid')} fluid + {r0.get('n_wall')} wall particles, "
