@@ -515,14 +515,17 @@ def sec_wedge_inside(doc: Doc):
                      sum(f["depth_dx"] > 0.5 for f in fr), r.get("worst_depth_dx"),
                      worst.get("t"), worst.get("body_xyz"), max((f["depth_dx"] for f in late), default=0.0),
                      max((f["n_inside"] for f in late), default=0), r.get("closest_approach_dx", "-"),
-                     r.get("guard_load_max_N", "-"), r.get("guard_load_late_N", "-"), r.get("date")])
+                     r.get("guard_load_max_N", "-"), r.get("guard_load_late_N", "-"),
+                     " / ".join(fmt(v) for v in r["fixed_closest_dx"].values()) if r.get("fixed_closest_dx") else "-",
+                     r.get("date")])
     doc.p("Since the guard (`Config.coupling_guard`): `closest` = the closest water to the faces over all frames "
           "(dx, negative inside); `guard load` = |F| of the penalty within dx/4 (evaluated whether it is on or "
-          "not): its largest, and its mean over the last 0.3 s.")
+          "not): its largest, and its mean over the last 0.3 s; `fixed slope / floor closest` = the same for "
+          "the fixed blocks (met as wall particles; guarded since `penalty.guard_fixed`).")
     doc.p(table(["boundary-particle sampling", "boundary particles", "frames with water inside",
                  "frames with water deeper than dx/2", "worst / dx", "at t s", "where (body frame)",
                  "at rest: worst / dx", "at rest: particles inside", "closest / dx", "guard load max N",
-                 "guard load at rest N", "date"], rows))
+                 "guard load at rest N", "fixed slope / floor closest / dx", "date"], rows))
 
 
 def sec_energy_creep(doc: Doc):

@@ -227,7 +227,9 @@ class Config:
         coupling_guard: with ``Coupling.BOUNDARY_PARTICLES``, also apply the seed Eq 22 penalty
             (``coupling.penalty``, within ``CouplingParams.interaction_distance`` of a face, dx/4 by
             default) so that no water particle is pressed between a block's particles into it; the
-            reaction goes to the block. Ignored by the other couplings.
+            reaction goes to the block; FIXED blocks' faces (met by the water as wall particles)
+            are guarded too, without a reaction (``coupling.penalty.guard_fixed``). Ignored by
+            the other couplings.
 
     A scene with no particles (``n_fluid == n_wall == 0``, blocks only) has ``grid=None`` and
     traces no SPH code; a scene with ``blocks=None`` traces no block code.

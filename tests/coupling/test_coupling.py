@@ -137,3 +137,36 @@ def test_block_drop_keeps_water_out_and_mass(dropped):
     # free fall through 0.25 m would give (2.21 m/s)
     vz = res.frames["block_v"][:, 0, 2]
     assert vz.min() > -np.sqrt(2 * 9.81 * 0.25)
+
+
+def test_guard_keeps_water_out_of_fixed_blocks():
+    """With boundary particles and the guard (``Config.coupling_guard``) the FIXED blocks' faces are
+    guarded too (``penalty.guard_fixed``), since their wall particles are no tight barrier either: a
+    water particle put 0.1 dx inside the fixed floor block gets the seed Eq 22 kick
+    ``dt K_S (r0 - s)`` straight up (s = -0.1 dx, the particle at rest), and the fixed floor takes
+    no load. Without the guard it gets nothing beyond the SPH step."""
+    from rockjax.step import advance
+
+    scene, state = _submerged(Coupling.BOUNDARY_PARTICLES)
+    config, params = scene.config, scene.params
+    B = state.blocks
+    floor = 1  # block_drop: the box, then the fixed floor
+    assert config.blocks.motion[floor] == rj.blocks.Motion.FIXED
+    np.testing.assert_allclose(np.asarray(B.q[floor]), [1.0, 0.0, 0.0, 0.0], atol=1e-7)
+    up = np.argmax(np.asarray(B.shape.face_normal[floor])[:, 2])
+    z_top = float(B.x[floor, 2] + B.shape.face_offset[floor, up])
+    dx = 0.025
+    P = state.particles
+    nf = config.n_fluid
+    i = int(jnp.argmin(jnp.where(P.kind[:nf] == rj.Kind.FLUID, P.x[:nf, 2], jnp.inf)))  # the lowest water particle
+    P = P.replace(x=P.x.at[i, 2].set(z_top - 0.1 * dx), v=P.v.at[i].set(0.0), a=P.a.at[i].set(0.0))
+    state = state.replace(particles=P)
+    on = advance(state, params, config)
+    off = advance(state, params, config.replace(coupling_guard=False))
+    cp = params.coupling
+    s = -0.1 * dx
+    expected = config.dt * float(cp.penalty_stiffness) * (float(cp.interaction_distance) - s)
+    dv = np.asarray(on.particles.v - off.particles.v)
+    # the moving box's guard does not reach the particle (it is far from the box)
+    np.testing.assert_allclose(dv[i], [0.0, 0.0, expected], rtol=2e-3, atol=1e-6 * expected)
+    assert float(on.coupling.force[floor, 2]) == 0.0 and float(off.coupling.force[floor, 2]) == 0.0

@@ -86,8 +86,9 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
             the particles cannot put into a joint thinner than dx. Needs ``still_level``. The
             joint aperture is dx/2 (faces closer than that carry it, fading out as they part);
             ``block_kwargs`` may override ``joint_water_level`` / ``joint_aperture``.
-        coupling_guard: with boundary particles, the seed Eq 22 penalty within dx/4 of a face as
-            well (``Config.coupling_guard``): no water pressed into a block between its particles.
+        coupling_guard: with boundary particles, the seed Eq 22 penalty within dx/4 of every
+            block face as well, moving or fixed (``Config.coupling_guard``): no water pressed
+            into a block between its (or the walls') particles.
         block_kwargs: extra keywords for ``blocks.make_blocks`` (stiffness, damping, ...).
     """
     blocks = _blocks_api()

@@ -87,7 +87,7 @@ Form (b): a general scene
     method = "penalty"                 # or "boundary_particles"; stiffness [1/s^2],
                                        # damping [1/s], interaction_distance [m] (penalty, seed Eq 22;
                                        # default dx/2); guard (boundary_particles: that penalty
-                                       # within dx/4 of a face too, default true)
+                                       # within dx/4 of every block face too, default true)
     [[gauge]]                          # free-surface elevation at (x, y)
     name = "near"
     xy = [1.0, 0.2]
