@@ -521,7 +521,7 @@ def sec_wedge_inside(doc: Doc):
     doc.p("Since the guard (`Config.coupling_guard`): `closest` = the closest water to the faces over all frames "
           "(dx, negative inside); `guard load` = |F| of the penalty within dx/4 (evaluated whether it is on or "
           "not): its largest, and its mean over the last 0.3 s; `fixed slope / floor closest` = the same for "
-          "the fixed blocks (met as wall particles; guarded since `penalty.guard_fixed`).")
+          "the fixed blocks (met as wall particles; guarded with `Config.guard_fixed`).")
     doc.p(table(["boundary-particle sampling", "boundary particles", "frames with water inside",
                  "frames with water deeper than dx/2", "worst / dx", "at t s", "where (body frame)",
                  "at rest: worst / dx", "at rest: particles inside", "closest / dx", "guard load max N",

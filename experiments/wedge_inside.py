@@ -10,7 +10,8 @@ slope face) at that x, in dx -- whether the water sits where the wedge is too th
 boundary-particle lattice. Also the count of boundary particles, and of the frames where the
 water got past their outer layer (deeper than dx/2, the depth of that layer since 2026-11-25's
 face-following sampling). With ``--no-guard`` the penalty guard within dx/4 of the faces
-(``Config.coupling_guard``, on by default since 2026-11-25) is switched off; the record also
+(``Config.coupling_guard``, on by default since 2026-11-25) is switched off, with
+``--guard-fixed`` the fixed blocks are guarded too (``Config.guard_fixed``); the record also
 gives the closest approach of the water to the faces and the guard's share of the load, and
 the same for the fixed slope and floor (``scenes.shapes.shell``'s walls). JSON lines out
 (``--out`` appends).
@@ -40,6 +41,8 @@ def main():
     ap.add_argument("--t-end", type=float, default=2.0)
     ap.add_argument("--no-guard", action="store_true",
                     help="switch off the penalty guard within dx/4 of the faces (Config.coupling_guard)")
+    ap.add_argument("--guard-fixed", action="store_true",
+                    help="guard the fixed slope and floor too (Config.guard_fixed, off by default)")
     ap.add_argument("--tag", default="", help="label stored in the record (e.g. the sampling used)")
     ap.add_argument("--out", default=None, help="JSON-lines file the record is appended to")
     a = ap.parse_args()
@@ -54,7 +57,7 @@ def main():
     from rockjax.coupling import penalty
 
     scene = rj.scenes.sliding_wedge(dx=a.dx, coupling=rj.Coupling.BOUNDARY_PARTICLES)
-    scene = scene.replace(config=scene.config.replace(coupling_guard=not a.no_guard))
+    scene = scene.replace(config=scene.config.replace(coupling_guard=not a.no_guard, guard_fixed=a.guard_fixed))
     P0 = scene.state.particles
     n_bp = int(np.sum(np.asarray(P0.body) == 0))
 
@@ -98,7 +101,7 @@ def main():
     guard = np.linalg.norm(np.asarray(res.observed["guard"]), axis=1)
     late = res.times >= res.times[-1] - 0.3
     rec = dict(dx=a.dx, t_end=float(res.times[-1]), wall_s=wall, n_fluid=scene.config.n_fluid, n_boundary=n_bp,
-               guard=not a.no_guard,
+               guard=not a.no_guard, guard_fixed=a.guard_fixed,
                # signed distance of the closest water particle to the wedge's faces over all frames [dx]
                closest_approach_dx=round(closest / a.dx, 3),
                # per fixed block (1: the slope, 2: the floor): closest water over the frames [dx], most inside at once

@@ -15,7 +15,8 @@ is never traced):
   stored for the blocks' next step (``coupling.penalty``); ``Coupling.BOUNDARY_PARTICLES``, the
   loads of the block particles summed in the WCSPH momentum pass (``coupling.boundary_particles``),
   plus, with ``config.coupling_guard``, the penalty within dx/4 of a face as a guard against
-  water pressed into a block between its particles (fixed blocks' faces included);
+  water pressed into a block between its particles (and, with ``config.guard_fixed``, into a fixed
+  block between the walls' particles);
 * checks: non-finite values, particles off the grid, stale neighbour list, time step beyond the
   stability limit; each sets a ``Status`` bit for the host driver.
 
@@ -138,14 +139,15 @@ def _guard(state: State, params: Params, config: Config, *, kick: bool) -> State
     sits at rest: the first layer stays ~dx/2 from the face), so that water pressed between a
     block's particles cannot enter it; the equal and opposite reaction is added to the loads.
     With ``kick`` the fluid is kicked by dt times it (in a step), else only the load is added;
-    the FIXED blocks' faces are guarded too (``penalty.guard_fixed``: a kick, no load)."""
+    with ``config.guard_fixed`` the FIXED blocks' faces too (``penalty.guard_fixed``: a kick, no load)."""
     if config.coupling != Coupling.BOUNDARY_PARTICLES or not config.coupling_guard:
         return state
     from .coupling import penalty
 
     if kick:
         P, g = penalty.apply(state.particles, state.blocks, params, config)
-        P = penalty.guard_fixed(P, state.blocks, params, config)
+        if config.guard_fixed:
+            P = penalty.guard_fixed(P, state.blocks, params, config)
     else:
         P, g = state.particles, penalty.load(state.particles, state.blocks, params, config)
     c = state.coupling

@@ -140,15 +140,16 @@ def test_block_drop_keeps_water_out_and_mass(dropped):
 
 
 def test_guard_keeps_water_out_of_fixed_blocks():
-    """With boundary particles and the guard (``Config.coupling_guard``) the FIXED blocks' faces are
+    """With boundary particles, the guard and ``Config.guard_fixed`` the FIXED blocks' faces are
     guarded too (``penalty.guard_fixed``), since their wall particles are no tight barrier either: a
     water particle put 0.1 dx inside the fixed floor block gets the seed Eq 22 kick
     ``dt K_S (r0 - s)`` straight up (s = -0.1 dx, the particle at rest), and the fixed floor takes
-    no load. Without the guard it gets nothing beyond the SPH step."""
+    no load. Without ``guard_fixed`` it gets nothing beyond the SPH step."""
     from rockjax.step import advance
 
     scene, state = _submerged(Coupling.BOUNDARY_PARTICLES)
-    config, params = scene.config, scene.params
+    assert scene.config.coupling_guard and not scene.config.guard_fixed  # the defaults
+    config, params = scene.config.replace(guard_fixed=True), scene.params
     B = state.blocks
     floor = 1  # block_drop: the box, then the fixed floor
     assert config.blocks.motion[floor] == rj.blocks.Motion.FIXED
@@ -162,7 +163,7 @@ def test_guard_keeps_water_out_of_fixed_blocks():
     P = P.replace(x=P.x.at[i, 2].set(z_top - 0.1 * dx), v=P.v.at[i].set(0.0), a=P.a.at[i].set(0.0))
     state = state.replace(particles=P)
     on = advance(state, params, config)
-    off = advance(state, params, config.replace(coupling_guard=False))
+    off = advance(state, params, config.replace(guard_fixed=False))
     cp = params.coupling
     s = -0.1 * dx
     expected = config.dt * float(cp.penalty_stiffness) * (float(cp.interaction_distance) - s)

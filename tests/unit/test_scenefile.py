@@ -119,6 +119,10 @@ def test_coupling_guard_key(extra, guard):
     bp = text.replace('[coupling]\nmethod = "penalty"\n', '[coupling]\nmethod = "boundary_particles"\n' + extra)
     scene = load(bp, dx=0.05).scene
     assert scene.config.coupling == rj.Coupling.BOUNDARY_PARTICLES and scene.config.coupling_guard is guard
+    assert scene.config.guard_fixed is False
+    fixed = load(bp.replace('method = "boundary_particles"\n', 'method = "boundary_particles"\nguard_fixed = true\n'),
+                 dx=0.05).scene
+    assert fixed.config.guard_fixed is True
     assert float(scene.params.coupling.interaction_distance) == pytest.approx(0.25 * 0.05)
     pen = load(text.replace('[coupling]\nmethod = "penalty"\n', '[coupling]\nmethod = "penalty"\ninteraction_distance = 0.02\n'),
                dx=0.05).scene

@@ -87,7 +87,8 @@ Form (b): a general scene
     method = "penalty"                 # or "boundary_particles"; stiffness [1/s^2],
                                        # damping [1/s], interaction_distance [m] (penalty, seed Eq 22;
                                        # default dx/2); guard (boundary_particles: that penalty
-                                       # within dx/4 of every block face too, default true)
+                                       # within dx/4 of a face too, default true); guard_fixed
+                                       # (the fixed blocks' faces too, default false)
     [[gauge]]                          # free-surface elevation at (x, y)
     name = "near"
     xy = [1.0, 0.2]
@@ -332,7 +333,8 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
             "density_diffusion": _choice(_enum_values(DensityDiffusion), "fourtakas")},
     "coupling": {"method": _choice(("penalty", "boundary_particles"), "penalty"),
                  "stiffness": _num(unit="1/s^2", **_POS), "damping": _num(unit="1/s", **_NONNEG),
-                 "interaction_distance": _num(unit="m", **_POS), "guard": _Key("bool", True)},
+                 "interaction_distance": _num(unit="m", **_POS), "guard": _Key("bool", True),
+                 "guard_fixed": _Key("bool", False)},
 }
 _ARRAYS = ("water", "fixed", "block", "gauge")
 _FIXED_KEYS = {"box": {"lo", "hi"}, "plane": {"point", "normal"}, "mesh": {"file", "scale", "offset", "convexity_tol"}}
@@ -967,6 +969,7 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
                               fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,
                               periodic=tuple(periodic), still_level=still, coupling=Coupling(cpl["method"]), c0=c0,
                               scheme=scheme, velocities=vel, joint_water=mat["joint_water"], coupling_guard=cpl["guard"],
+                              guard_fixed=cpl["guard_fixed"],
                               block_kwargs=block_kwargs,
                               meta=meta, **common)
     except ValueError as exc:
