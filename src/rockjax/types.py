@@ -233,6 +233,8 @@ class Config:
             no load (``coupling.penalty.guard_fixed``). Off by default: it costs ~0.2 ms/step per
             fixed block at 4.3k water particles (5 % of the sliding wedge's step at dx = 0.04) for
             a rare artefact (the wedge: one particle trapped 0.34 dx inside the slope's toe).
+            Ignored by the penalty coupling, like ``coupling_guard`` (there a guarded floor held a
+            landing block 0.75 dx up on trapped water: ``coupling.penalty.guard_fixed``).
 
     A scene with no particles (``n_fluid == n_wall == 0``, blocks only) has ``grid=None`` and
     traces no SPH code; a scene with ``blocks=None`` traces no block code.

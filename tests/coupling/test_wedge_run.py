@@ -139,8 +139,9 @@ def test_guard_fixed_keeps_water_out_of_fixed_blocks():
     """Boundary particles with ``Config.guard_fixed`` (the seed Eq 22 penalty within dx/4 of the
     fixed blocks' faces, a kick with no load; ``coupling.penalty.guard_fixed``): no water inside the
     fixed slope or floor. Measured 2026-11-25: closest 0.250 dx outside the slope, 0.272 dx above
-    the floor (0.295 dx in ``experiments/wedge_inside.py --guard-fixed``'s frames). Not offered with the penalty coupling: guarded so, block_drop's box was held 0.75 dx
-    above the floor on a trapped film of water (kept out of the slope: +0.248 / +0.261 dx)."""
+    the floor (0.295 dx in ``experiments/wedge_inside.py --guard-fixed``'s frames). Not offered
+    with the penalty coupling: guarded so, block_drop's box was held 0.75 dx above the floor on a
+    trapped film of water (kept out of the slope: +0.248 / +0.261 dx)."""
     scene = rj.scenes.sliding_wedge(dx=DX, coupling=rj.Coupling.BOUNDARY_PARTICLES)
     scene = scene.replace(config=scene.config.replace(guard_fixed=True))
     res = rj.simulate(scene, t_end=T_END, frame_dt=0.05, progress=False)

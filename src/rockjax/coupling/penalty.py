@@ -30,17 +30,29 @@ from ..types import Config, CouplingState, Kind, Params, Particles
 __all__ = ["accelerations", "apply", "load", "coupled_blocks", "fixed_blocks", "guard_fixed"]
 
 
+def _is_fixed(motion) -> bool:
+    return getattr(motion, "name", str(motion)) == "FIXED"
+
+
 def coupled_blocks(config: Config) -> tuple[int, ...]:
     """Indices of the blocks that exchange forces with the water (those that are not FIXED)."""
-    return tuple(i for i, m in enumerate(config.blocks.motion) if getattr(m, "name", str(m)) != "FIXED")
+    return tuple(i for i, m in enumerate(config.blocks.motion) if not _is_fixed(m))
 
 
 def fixed_blocks(config: Config) -> tuple[int, ...]:
     """Indices of the FIXED blocks (met by the fluid as wall particles; guarded by ``guard_fixed``)."""
-    return tuple(i for i, m in enumerate(config.blocks.motion) if getattr(m, "name", str(m)) == "FIXED")
+    return tuple(i for i, m in enumerate(config.blocks.motion) if _is_fixed(m))
 
 
-def accelerations(P: Particles, blocks, params: Params, config: Config, *, which: tuple[int, ...] | None = None):
+def _min_image(r, config: Config):
+    """Minimum-image separations ``r`` [..., 3] along the grid's periodic axes (as given without any)."""
+    if config.grid is None or not any(config.grid.periodic):
+        return r
+    L = jnp.asarray(config.grid.lengths, r.dtype)
+    return jnp.where(jnp.asarray(config.grid.periodic), r - L * jnp.round(r / L), r)
+
+
+def accelerations(P: Particles, blocks, params: Params, config: Config):
     """Penalty accelerations of the fluid and the per-pair data for the block reaction.
 
     Args:
@@ -48,8 +60,7 @@ def accelerations(P: Particles, blocks, params: Params, config: Config, *, which
 
     Returns:
         ``acc`` [n_fluid, Bc, 3] m/s^2, acceleration of fluid particle i due to coupled block b;
-        ``r`` [n_fluid, Bc, 3] m, the lever arm x_i - X_b; ``idx`` the coupled block indices
-        (``which``, default ``coupled_blocks(config)``).
+        ``r`` [n_fluid, Bc, 3] m, the lever arm x_i - X_b; ``idx`` the coupled block indices.
 
     Per block, the nearest face is found by a static loop over the faces on [n_fluid] arrays
     (signed distance and face index), then its world normal is gathered from an [F, 3] table.
@@ -57,7 +68,7 @@ def accelerations(P: Particles, blocks, params: Params, config: Config, *, which
     as [n_fluid, Bc, F] einsums with an argmax gather, and 1.4 ms with the face loop carrying
     the normal's components (XLA fuses that chain into every component of the consumers).
     """
-    idx = coupled_blocks(config) if which is None else tuple(which)
+    idx = coupled_blocks(config)
     nf = config.n_fluid
     cp = params.coupling
     x = P.x[:nf]
@@ -67,10 +78,7 @@ def accelerations(P: Particles, blocks, params: Params, config: Config, *, which
     n_faces = blocks.shape.face_normal.shape[1]
     acc, lever = [], []
     for k, b in enumerate(idx):
-        r = x - blocks.x[b]  # [nf, 3]
-        if config.grid is not None and any(config.grid.periodic):
-            L = jnp.asarray(config.grid.lengths, x.dtype)
-            r = jnp.where(jnp.asarray(config.grid.periodic), r - L * jnp.round(r / L), r)
+        r = _min_image(x - blocks.x[b], config)  # [nf, 3]
         normals = blocks.shape.face_normal[b] @ R_all[k].T  # [F, 3] world frame
         offsets, fmask = blocks.shape.face_offset[b], blocks.shape.face_mask[b]
         s = jnp.full((nf,), -jnp.inf, x.dtype)  # signed distance to the block
@@ -135,10 +143,7 @@ def guard_fixed(P: Particles, blocks, params: Params, config: Config) -> Particl
     fixed = jnp.asarray(which, jnp.int32)
     normals = jnp.einsum("bfj,bij->bfi", blocks.shape.face_normal[fixed], quat_matrix(blocks.q[fixed]))  # world
     offsets = jnp.where(blocks.shape.face_mask[fixed], blocks.shape.face_offset[fixed], jnp.inf)
-    r = x[:, None, :] - blocks.x[fixed][None]  # [nf, Bf, 3]
-    if config.grid is not None and any(config.grid.periodic):
-        L = jnp.asarray(config.grid.lengths, x.dtype)
-        r = jnp.where(jnp.asarray(config.grid.periodic), r - L * jnp.round(r / L), r)
+    r = _min_image(x[:, None, :] - blocks.x[fixed][None], config)  # [nf, Bf, 3]
     s_all = jnp.einsum("nbi,bfi->nbf", r, normals) - offsets[None]  # [nf, Bf, F] signed distances
     s = jnp.max(s_all, axis=-1)
     n = jnp.take_along_axis(normals[None], jnp.argmax(s_all, axis=-1)[..., None, None], axis=2)[:, :, 0]
