@@ -161,6 +161,9 @@ def _grow(config: Config, period: int, state: State, bits: int) -> tuple[Config,
     if bits & Status.WALL_PAIR_OVERFLOW:
         changes["wall_pair_capacity"] = max(_round8(1.5 * int(state.nbrs.max_wall_count)),
                                             config.wall_pair_capacity + 64)
+    if bits & Status.BODY_PAIR_OVERFLOW:
+        changes["body_pair_capacity"] = max(_round8(1.5 * int(state.nbrs.max_body_count)),
+                                            config.body_pair_capacity + 64)
     if bits & Status.NEIGHBOUR_STALE:
         if period == 1:
             raise SimulationError("neighbour list stale with a rebuild every step: particles move more than "
@@ -180,7 +183,8 @@ def _clear(state: State) -> State:
     zero = jnp.zeros((), jnp.int32)
     state = state.replace(status=zero)
     if state.nbrs is not None:
-        state = state.replace(nbrs=state.nbrs.replace(max_count=zero, max_run=zero, max_wall_count=zero))
+        state = state.replace(nbrs=state.nbrs.replace(max_count=zero, max_run=zero, max_wall_count=zero,
+                                                      max_body_count=zero))
     return state
 
 

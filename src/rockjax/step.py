@@ -13,7 +13,8 @@ is never traced):
 * fluid (``config.n_fluid > 0``): ``Scheme.WCSPH`` (``sph.wcsph``) or ``Scheme.SEED`` (``sph.seed``);
 * coupling: ``Coupling.PENALTY``, seed Eq 22 on the fluid at the end of the step, the reaction
   stored for the blocks' next step (``coupling.penalty``); ``Coupling.BOUNDARY_PARTICLES``, the
-  loads of the block particles summed in the WCSPH momentum pass (``coupling.boundary_particles``),
+  loads of the block particles from the WCSPH momentum pass's pair terms, over the list's short
+  sub-list of (fluid, block particle) pairs (``NeighbourList.body_row``; ``coupling.boundary_particles``),
   plus, with ``config.coupling_guard``, the penalty within dx/4 of a face as a guard against
   water pressed into a block between its particles (and, with ``config.guard_fixed``, into a fixed
   block between the walls' particles);
@@ -55,6 +56,7 @@ def refresh(state: State, config: Config) -> State:
         max_count=jnp.maximum(nbrs.max_count, state.nbrs.max_count),
         max_run=jnp.maximum(nbrs.max_run, state.nbrs.max_run),
         max_wall_count=jnp.maximum(nbrs.max_wall_count, state.nbrs.max_wall_count),
+        max_body_count=jnp.maximum(nbrs.max_body_count, state.nbrs.max_body_count),
     )
     return state.replace(particles=particles, nbrs=nbrs, status=state.status | status)
 
@@ -155,7 +157,7 @@ def _guard(state: State, params: Params, config: Config, *, kick: bool) -> State
 
 
 def _load_bodies(config: Config) -> tuple[int, ...]:
-    """Blocks whose boundary-particle loads a WCSPH step sums in its momentum pass (else ())."""
+    """Blocks whose boundary-particle loads a WCSPH step takes from its momentum pass's pair terms (else ())."""
     if config.coupling != Coupling.BOUNDARY_PARTICLES or config.scheme != Scheme.WCSPH:
         return ()
     from .coupling.penalty import coupled_blocks
@@ -174,8 +176,8 @@ def advance(state: State, params: Params, config: Config) -> State:
             # the loads come out of the momentum pass (the reaction of exactly what the fluid gets)
             from .coupling import boundary_particles
 
-            P, acc_bodies = wcsph.advance(state.particles, state.nbrs, params, config, bodies=bodies)
-            load = boundary_particles.from_accelerations(P, acc_bodies, bodies, state.blocks, params, config)
+            P, pair_forces = wcsph.advance(state.particles, state.nbrs, params, config, bodies=bodies)
+            load = boundary_particles.from_pair_forces(P, pair_forces, bodies, state.blocks)
             state = _guard(state.replace(particles=P, coupling=load), params, config, kick=True)
         else:
             P = _fluid(config).advance(state.particles, state.nbrs, params, config)

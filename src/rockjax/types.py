@@ -117,12 +117,13 @@ class Status(enum.IntFlag):
     BLOCK_PENETRATION = 256  #: a block contact penetrated deeper than the allowed fraction of its size
     WALL_PAIR_OVERFLOW = 512  #: more fluid-wall pairs in the list than ``Config.wall_pair_capacity``
     JOINT_PATCH_OVERFLOW = 1024  #: a joint patch has more points than ``BlockConfig.joint_patch_points``
+    BODY_PAIR_OVERFLOW = 2048  #: more (fluid, block particle) pairs in the list than ``Config.body_pair_capacity``
 
     @classmethod
     def growable(cls) -> "Status":
         """Bits that the driver cures by growing a buffer (or rebuilding more often) and rerunning."""
         return (cls.NEIGHBOUR_OVERFLOW | cls.CELL_OVERFLOW | cls.NEIGHBOUR_STALE | cls.CONTACT_OVERFLOW
-                | cls.WALL_PAIR_OVERFLOW | cls.JOINT_PATCH_OVERFLOW)
+                | cls.WALL_PAIR_OVERFLOW | cls.JOINT_PATCH_OVERFLOW | cls.BODY_PAIR_OVERFLOW)
 
     @classmethod
     def describe(cls, bits: int) -> str:
@@ -213,6 +214,11 @@ class Config:
         wall_pair_capacity: length of the flat list of (fluid row, wall neighbour) pairs that the
             WCSPH step sums the walls' quantities over (``NeighbourList.wall_row``); scene builders
             size it from the initial state, the driver grows it on ``WALL_PAIR_OVERFLOW``.
+        body_pair_capacity: with ``Coupling.BOUNDARY_PARTICLES``, length of the sub-list of those
+            pairs whose wall particle is carried by a block (``NeighbourList.body_row``), over
+            which a WCSPH step sums the loads on the blocks (0: no sub-list; the loads then come
+            from a masked sum over every pair); scene builders size it, the driver grows it on
+            ``BODY_PAIR_OVERFLOW``.
         row_tile: the WCSPH step sums over the pairs in blocks of this many fluid rows, so that
             the per-pair intermediates stay in cache (0: all rows at once). None (default):
             blocks of ~512 rows when the list has more than ``2**19`` slots (``n_fluid * K``), else
@@ -250,6 +256,7 @@ class Config:
     neighbour_capacity: int = 96
     cell_capacity: int = 96
     wall_pair_capacity: int = 0
+    body_pair_capacity: int = 0
     row_tile: Optional[int] = None
     scheme: Scheme = Scheme.WCSPH
     kernel: KernelKind = KernelKind.WENDLAND_C2
@@ -283,6 +290,8 @@ class Config:
             raise ValueError("Config.neighbour_capacity and cell_capacity must be >= 1")
         if self.wall_pair_capacity < 0:
             raise ValueError(f"Config.wall_pair_capacity must be >= 0 (got {self.wall_pair_capacity})")
+        if self.body_pair_capacity < 0:
+            raise ValueError(f"Config.body_pair_capacity must be >= 0 (got {self.body_pair_capacity})")
         if self.row_tile is not None and self.row_tile < 0:
             raise ValueError(f"Config.row_tile must be >= 0 or None (0 = no blocks; got {self.row_tile})")
         if self.skin < 0:
@@ -452,6 +461,9 @@ class NeighbourList:
             are masked. Sums onto the walls run over this short list instead of all of ``idx``.
         wall_count: the number of such pairs at the last build; max_wall_count: the largest seen
             since the driver reset it (compare with ``Config.wall_pair_capacity``).
+        body_row, body_col: [body_pair_capacity] int32, the pairs of ``wall_row`` / ``wall_col``
+            whose wall particle is carried by a block (``Particles.body >= 0``), in the same order;
+            (0, 0) past ``body_count``. body_count, max_body_count: as for the wall pairs.
     """
 
     idx: jax.Array
@@ -462,6 +474,10 @@ class NeighbourList:
     wall_col: jax.Array
     wall_count: jax.Array
     max_wall_count: jax.Array
+    body_row: jax.Array
+    body_col: jax.Array
+    body_count: jax.Array
+    max_body_count: jax.Array
 
 
 @_pytree_dataclass

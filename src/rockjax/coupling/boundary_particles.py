@@ -5,7 +5,8 @@ Layers of particles sampled inside each moving block (``scenes.block_sampling``:
 position ``x_body``. Every step they are placed at the block's new pose with the block's point
 velocity (``place``); the fluid meets them as wall particles (Adami pressure, no-slip through the
 viscous term). The load on block b is minus the sum of the forces its particles exert on the
-fluid (``load``): ``F_b = -sum_i m_i a_i^(b)`` where ``a_i^(b)`` is the SPH acceleration of
+fluid (``load``; in a WCSPH step ``from_pair_forces``, from the momentum pass's own pair terms):
+``F_b = -sum_i m_i a_i^(b)`` where ``a_i^(b)`` is the SPH acceleration of
 fluid particle i from the particles of block b alone, and the torque
 ``T_b = -sum_i (x_i - X_b) x m_i a_i^(b)`` -- exact for central pair forces (pressure and
 artificial viscosity act along x_i - x_j), so momentum and angular momentum are exchanged
@@ -23,7 +24,7 @@ from ..types import Config, CouplingState, Kind, NeighbourList, Params, Particle
 from ..blocks.rotation import quat_matrix
 from .penalty import coupled_blocks
 
-__all__ = ["place", "load", "from_accelerations"]
+__all__ = ["place", "load", "from_accelerations", "from_pair_forces"]
 
 
 def place(P: Particles, blocks, config: Config) -> Particles:
@@ -41,7 +42,7 @@ def load(P: Particles, nbrs: NeighbourList, blocks, params: Params, config: Conf
     """Fluid force [B, 3] N and torque [B, 3] N m on each block, for the current particles.
 
     A momentum sum per coupled block (used at priming, and by the seed scheme); a WCSPH step gets
-    the same sums from its own momentum pass (``wcsph.advance(..., bodies=...)``, ``from_accelerations``).
+    the same pair terms from its own momentum pass (``wcsph.advance(..., bodies=...)``, ``from_pair_forces``).
     """
     nf = config.n_fluid
     pr = pairs(P.x, P.kind, nbrs.idx, config)
@@ -71,4 +72,22 @@ def from_accelerations(P: Particles, acc_bodies, bodies: tuple[int, ...], blocks
         r = P.x[:nf] - blocks.x[b]
         force = force.at[b].set(-jnp.sum(f, 0))
         torque = torque.at[b].set(-jnp.sum(jnp.cross(r, f), 0))
+    return CouplingState(force=force, torque=torque)
+
+
+def from_pair_forces(P: Particles, pair_forces, bodies: tuple[int, ...], blocks) -> CouplingState:
+    """Loads on the blocks ``bodies`` from ``pair_forces = (row [M], col [M], f [M, 3] N)``, the
+    force on fluid particle ``row`` from block particle ``col`` (``wcsph.advance(..., bodies=...)``;
+    zero for the pairs that do not count): ``F_b = -sum f``, ``T_b = -sum (x_row - X_b) x f`` over
+    the pairs whose ``col`` is carried by block b (a masked sum per block)."""
+    row, col, f = pair_forces
+    body = P.body[col]
+    x = P.x[row]
+    n_blocks = blocks.x.shape[0]
+    force = jnp.zeros((n_blocks, 3), P.x.dtype)
+    torque = jnp.zeros((n_blocks, 3), P.x.dtype)
+    for b in bodies:
+        fb = jnp.where((body == b)[:, None], f, 0.0)
+        force = force.at[b].set(-jnp.sum(fb, 0))
+        torque = torque.at[b].set(-jnp.sum(jnp.cross(x - blocks.x[b], fb), 0))
     return CouplingState(force=force, torque=torque)

@@ -188,10 +188,11 @@ def empty_neighbours(config: Config, x) -> NeighbourList:
     nf = config.n_fluid
     zero = jnp.zeros((), jnp.int32)
     none = jnp.zeros((config.wall_pair_capacity,), jnp.int32)
+    no_body = jnp.zeros((config.body_pair_capacity,), jnp.int32)
     return NeighbourList(
         idx=jnp.tile(jnp.arange(nf, dtype=jnp.int32)[:, None], (1, config.neighbour_capacity)),
         x_ref=jnp.asarray(x), max_count=zero, max_run=zero, wall_row=none, wall_col=none, wall_count=zero,
-        max_wall_count=zero,
+        max_wall_count=zero, body_row=no_body, body_col=no_body, body_count=zero, max_body_count=zero,
     )
 
 

@@ -23,7 +23,7 @@ from ..types import (
     Config, Coupling, CouplingParams, DensityDiffusion, KernelKind, Scheme, State, Viscosity,
     WallModel, float_dtype,
 )
-from .base import GRAVITY, Scene, _positive, make_state, particle_layout, stable_dt, water_params
+from .base import GRAVITY, Scene, _ceil8, _positive, make_state, particle_layout, stable_dt, water_params
 from .block_sampling import sample_block_particles
 from .shapes import fill, plane, shell
 
@@ -158,6 +158,12 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     if coupling == Coupling.BOUNDARY_PARTICLES:  # each block particle: its share of the block's shell
         vol = vol.copy()
         vol[len(fluid_x) + n_fixed_walls:] = np.concatenate(vb)
+    body_pair_capacity = 0
+    if coupling == Coupling.BOUNDARY_PARTICLES:
+        # at most a ball of water (lattice density) around each block particle: an upper bound
+        # (the block fills part of every ball); the driver grows it if compressed water needs more
+        ball = 4.0 / 3.0 * math.pi * ((cutoff + skin) / dx) ** 3
+        body_pair_capacity = min(_ceil8(len(np.concatenate(vb)) * ball), L["wall_pair_capacity"])
     dt = stable_dt(params, scheme=scheme, viscosity=Viscosity.ARTIFICIAL, cfl=cfl)
     dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
     if dt_blocks < dt and "normal_stiffness" not in (block_kwargs or {}):
@@ -174,7 +180,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     meta["block_normal_stiffness"] = float(bparams.normal_stiffness)
     config = Config(n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
                     rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap,
-                    wall_pair_capacity=L["wall_pair_capacity"], scheme=scheme, kernel=KernelKind.WENDLAND_C2, viscosity=Viscosity.ARTIFICIAL, wall_model=WallModel.ADAMI,
+                    wall_pair_capacity=L["wall_pair_capacity"], body_pair_capacity=body_pair_capacity, scheme=scheme, kernel=KernelKind.WENDLAND_C2, viscosity=Viscosity.ARTIFICIAL, wall_model=WallModel.ADAMI,
                     density_diffusion=DensityDiffusion.FOURTAKAS, cfl=cfl, blocks=bconfig, coupling=coupling,
                     coupling_guard=bool(coupling_guard), guard_fixed=bool(guard_fixed))
     state = make_state(config=config, x=x, kind=kind, vol=vol, rho=rho)

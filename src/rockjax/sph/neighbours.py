@@ -40,7 +40,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..types import Config, GridSpec, Kind, NeighbourList, Particles, Status
+from ..types import Config, Coupling, GridSpec, Kind, NeighbourList, Particles, Status
 
 __all__ = ["cell_coords", "search_grid", "range_capacity", "sort_by_cell", "build", "rebuild", "pair_geometry", "safe_norm", "wrap_positions",
            "min_image", "transpose_sum", "take", "Pairs", "pairs", "Rows", "scan_rows", "wall_pairs"]
@@ -502,14 +502,40 @@ def wall_pairs(idx, kind, config: Config):
     return jnp.where(valid, row, 0), jnp.where(valid, col, 0), count.astype(jnp.int32), status
 
 
+def body_pairs(row, col, count, body, config: Config):
+    """The pairs of the flat wall list whose wall particle is carried by a block (``body >= 0``).
+
+    Args:
+        row, col: [M] the wall pairs (``wall_pairs``), valid below ``count``; body: [N] block of
+            each particle (-1 for none).
+    Returns:
+        ``(row [Mb], col [Mb], count, status)`` with Mb = ``config.body_pair_capacity``, in the
+        wall list's order, (0, 0) past ``count``; ``BODY_PAIR_OVERFLOW`` if ``count > Mb``.
+        ``rebuild`` builds it with ``Coupling.BOUNDARY_PARTICLES`` only.
+    """
+    Mb = config.body_pair_capacity
+    on = (jnp.arange(row.shape[0]) < count) & (take(body, col) >= 0)
+    n_on = jnp.sum(on, dtype=jnp.int32)
+    (sel,) = jnp.nonzero(on, size=Mb, fill_value=0)
+    valid = jnp.arange(Mb) < n_on
+    status = jnp.where(n_on > Mb, Status.BODY_PAIR_OVERFLOW, 0).astype(jnp.int32)
+    return jnp.where(valid, take(row, sel), 0), jnp.where(valid, take(col, sel), 0), n_on, status
+
+
 def rebuild(particles: Particles, config: Config):
     """Sort the particles by cell and build a fresh list. Returns ``(particles, NeighbourList, status)``."""
     particles = sort_by_cell(particles, config)
     idx, status, max_count, run = build(particles.x, particles.kind, config)
     row, col, count, wall_status = wall_pairs(idx, particles.kind, config)
+    if config.body_pair_capacity and config.coupling == Coupling.BOUNDARY_PARTICLES:
+        brow, bcol, bcount, body_status = body_pairs(row, col, count, particles.body, config)
+    else:  # no sub-list (kept at its configured length)
+        brow = bcol = jnp.zeros((config.body_pair_capacity,), jnp.int32)
+        bcount, body_status = jnp.zeros((), jnp.int32), jnp.zeros((), jnp.int32)
     nbrs = NeighbourList(idx=idx, x_ref=jax.lax.stop_gradient(particles.x), max_count=max_count, max_run=run,
-                         wall_row=row, wall_col=col, wall_count=count, max_wall_count=count)
-    return particles, nbrs, status | wall_status
+                         wall_row=row, wall_col=col, wall_count=count, max_wall_count=count,
+                         body_row=brow, body_col=bcol, body_count=bcount, max_body_count=bcount)
+    return particles, nbrs, status | wall_status | body_status
 
 
 def transpose_sum(values, idx, n: int):

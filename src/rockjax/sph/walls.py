@@ -36,12 +36,16 @@ class WallPairs(NamedTuple):
     valid: jax.Array
 
 
-def wall_pair_geometry(x, nbrs, grid) -> WallPairs:
-    """``WallPairs`` for positions ``x`` [N, 3] and the list ``nbrs`` (a ``NeighbourList``)."""
-    row, col = nbrs.wall_row, nbrs.wall_col
+def wall_pair_geometry(x, nbrs, grid, *, bodies: bool = False) -> WallPairs:
+    """``WallPairs`` for positions ``x`` [N, 3] and the list ``nbrs`` (a ``NeighbourList``): its
+    (fluid, wall) pairs, or with ``bodies`` its sub-list of (fluid, block particle) pairs."""
+    if bodies:
+        row, col, count = nbrs.body_row, nbrs.body_col, nbrs.body_count
+    else:
+        row, col, count = nbrs.wall_row, nbrs.wall_col, nbrs.wall_count
     d = tuple(min_image(take(x[:, a], row) - take(x[:, a], col), a, grid) for a in range(3))
     r = safe_norm(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-    valid = jnp.arange(row.shape[0]) < nbrs.wall_count
+    valid = jnp.arange(row.shape[0]) < count
     return WallPairs(row=row, col=col, d=d, r=r, valid=valid)
 
 

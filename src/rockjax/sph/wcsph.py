@@ -24,14 +24,15 @@ from typing import NamedTuple, Optional
 import jax
 import jax.numpy as jnp
 
-from ..types import Config, DensityDiffusion, Kind, NeighbourList, Params, Particles, Viscosity, WallModel
+from ..types import Config, Coupling, DensityDiffusion, Kind, NeighbourList, Params, Particles, Viscosity, WallModel
 from .eos import tait_density, tait_pressure
 from .kernels import kernel_pair
 from .neighbours import Pairs, Rows, neighbour_kind, pairs, scan_rows, take, transpose_sum, wrap_positions
 from .walls import adami_finish, adami_sums, adami_terms, wall_pair_geometry
 
 __all__ = ["PairTerms", "pair_terms", "density_rate", "density_gradient", "acceleration", "pressure", "advance",
-           "prime", "hydrostatic_density_difference"]
+           "prime", "hydrostatic_density_difference",
+           "wall_pair_forces"]
 
 
 class PairTerms(NamedTuple):
@@ -224,59 +225,71 @@ def density_rate(pr: Pairs, v, rho, vol, kind, params: Params, config: Config, *
     return jnp.concatenate([drho_f, drho_w])
 
 
-def _acceleration_rows(pr: Pairs, t: PairTerms, v, rho, p, vol, kind, params: Params, config: Config, *,
-                       body=None, bodies: tuple[int, ...] = (), gradient: bool = False):
-    """Momentum sums of a block of rows: acceleration [R, 3] m/s^2 (gravity included; zero off the fluid).
-
-    With ``bodies`` (block indices) and ``body`` [N] (the block carrying each particle, -1 for
-    none), also the part of each row's acceleration due to the particles of each of those blocks:
-    returns ``(acc [R, 3], acc_bodies [R, len(bodies), 3])`` -- the same pair terms, so the loads
-    on the blocks are the exact reaction of what the fluid receives (one pass, no extra sums).
-    With ``gradient`` also returns the rows' renormalised density gradient [R, 3] last
-    (``_density_gradient_rows``, from the pass's own gathers).
-    """
+def _pair_force_factors(m_j, rho_i, rho_j, p_i, p_j, vij, d, r2, F, fluid_j, params: Params, config: Config):
+    """Per-pair momentum factors ``(cf, lam)``: the acceleration of i due to j is
+    ``cf d + lam v_ij`` (``lam`` None with artificial viscosity). Arrays of any one shape (the
+    [R, K] rows of a pass, or the flat [M] wall-pair list); ``vij``, ``d``: three such arrays
+    (``v_i - v_j``, ``x_i - x_j``); ``fluid_j``: True where j is fluid (else the viscous factor is
+    ``wall_viscosity``: walls and blocks)."""
     f = params.fluid
     h = f.h
-    rows = pr.rows
-    idx, d, r2, F = pr.idx, pr.d, pr.r2, t.F
-    rho_i = rows.of(rho)[:, None]
-    rho_j = take(rho, idx)
-    m_j = f.rho0 * take(vol, idx)
-    coef = -m_j * (rows.of(p)[:, None] + take(p, idx)) / (rho_i * rho_j)
+    coef = -m_j * (p_i + p_j) / (rho_i * rho_j)
     eta2 = 0.01 * h * h
-    v_i = rows.of(v)
-    vij = tuple(v_i[:, a, None] - take(v[:, a], idx) for a in range(3))
-    # viscous factor per pair: 1 between fluid particles, wall_viscosity towards walls and blocks
-    visc = jnp.where(t.kind_j == Kind.FLUID, 1.0, f.wall_viscosity)
+    visc = jnp.where(fluid_j, 1.0, f.wall_viscosity)
     if config.viscosity == Viscosity.ARTIFICIAL:
         vr = vij[0] * d[0] + vij[1] * d[1] + vij[2] * d[2]
         mu = h * vr / (r2 + eta2)
         pi_ij = jnp.where(vr < 0, (-2.0 * f.alpha * f.c0) * visc * mu / (rho_i + rho_j), 0.0)
-        cf = (coef - m_j * pi_ij) * F
-        lam = None
+        return (coef - m_j * pi_ij) * F, None
+    return coef * F, m_j * 4.0 * f.nu * visc * (F * r2) / ((rho_i + rho_j) * (r2 + eta2))
+
+
+def _acceleration_rows(pr: Pairs, t: PairTerms, v, rho, p, vol, kind, params: Params, config: Config, *,
+                       gradient: bool = False):
+    """Momentum sums of a block of rows: acceleration [R, 3] m/s^2 (gravity included; zero off the fluid).
+
+    With ``gradient`` also returns the rows' renormalised density gradient [R, 3] last
+    (``_density_gradient_rows``, from the pass's own gathers).
+    """
+    f = params.fluid
+    rows = pr.rows
+    idx, d, F = pr.idx, pr.d, t.F
+    rho_i = rows.of(rho)[:, None]
+    rho_j = take(rho, idx)
+    m_j = f.rho0 * take(vol, idx)
+    v_i = rows.of(v)
+    vij = tuple(v_i[:, a, None] - take(v[:, a], idx) for a in range(3))
+    cf, lam = _pair_force_factors(m_j, rho_i, rho_j, rows.of(p)[:, None], take(p, idx), vij, d, pr.r2, F,
+                                  t.kind_j == Kind.FLUID, params, config)
+    if lam is None:
+        s = jnp.stack([jnp.sum(cf * d[a], axis=1) for a in range(3)], axis=1)
     else:
-        cf = coef * F
-        lam = m_j * 4.0 * f.nu * visc * (F * r2) / ((rho_i + rho_j) * (r2 + eta2))
-
-    def sums(cf, lam):
-        if lam is None:
-            return jnp.stack([jnp.sum(cf * d[a], axis=1) for a in range(3)], axis=1)
-        return jnp.stack([jnp.sum(cf * d[a] + lam * vij[a], axis=1) for a in range(3)], axis=1)
-
+        s = jnp.stack([jnp.sum(cf * d[a] + lam * vij[a], axis=1) for a in range(3)], axis=1)
     fluid = rows.of(kind) == Kind.FLUID
-    acc = jnp.where(fluid[:, None], sums(cf, lam) + params.gravity, 0.0)
-    out = (acc,)
-    if bodies:
-        body_j = take(body, idx)
-        per_body = []
-        for b in bodies:
-            on = body_j == b
-            per_body.append(sums(jnp.where(on, cf, 0.0), None if lam is None else jnp.where(on, lam, 0.0)))
-        out += (jnp.where(fluid[:, None, None], jnp.stack(per_body, axis=1), 0.0),)
+    acc = jnp.where(fluid[:, None], s + params.gravity, 0.0)
     if gradient:
         w = jnp.where(t.kind_j == Kind.FLUID, -(m_j / rho_j) * F, 0.0)  # V_j (-F) >= 0
-        out += (_renormalised_gradient(d, w, rho_j - rho_i),)
-    return out[0] if len(out) == 1 else out
+        return acc, _renormalised_gradient(d, w, rho_j - rho_i)
+    return acc
+
+
+def wall_pair_forces(wp, on, v, rho, p, vol, params: Params, config: Config):
+    """Force [M, 3] N on the fluid particle ``wp.row`` from the wall particle ``wp.col`` of each
+    flat wall pair (``sph.walls.WallPairs``), zero where not ``on`` [M]: ``m_i (cf d + lam v_ij)``,
+    the very pair term the momentum pass sums (``_pair_force_factors``). The boundary-particle
+    coupling sums it over the pairs with block particles (``coupling.boundary_particles``): ~1/6
+    of the slots of the rows' list in the wedge, instead of a masked second sum over all of them."""
+    f = params.fluid
+    _, f_fn = kernel_pair(config.kernel)
+    i, j = wp.row, wp.col
+    r2 = wp.d[0] * wp.d[0] + wp.d[1] * wp.d[1] + wp.d[2] * wp.d[2]
+    F = jnp.where(on, f_fn(wp.r, f.h), 0.0)
+    vij = tuple(take(v[:, a], i) - take(v[:, a], j) for a in range(3))
+    cf, lam = _pair_force_factors(f.rho0 * take(vol, j), take(rho, i), take(rho, j), take(p, i), take(p, j), vij,
+                                  wp.d, r2, F, False, params, config)
+    m_i = f.rho0 * take(vol, i)
+    comps = [cf * wp.d[a] if lam is None else cf * wp.d[a] + lam * vij[a] for a in range(3)]
+    return jnp.where(on[:, None], m_i[:, None] * jnp.stack(comps, axis=-1), 0.0)
 
 
 def acceleration(pr: Pairs, v, rho, p, vol, kind, params: Params, config: Config, *,
@@ -305,9 +318,11 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     """One step of length ``config.dt``: velocity Verlet for (x, v), density staggered like x.
 
     Returns the new ``Particles``; with ``bodies`` (indices of blocks carrying boundary particles,
-    ``P.body``) returns ``(Particles, acc_bodies [n_fluid, len(bodies), 3] m/s^2)``, the part of each
-    fluid particle's new acceleration due to each block's particles (``coupling.boundary_particles``
-    turns it into the loads), summed in the momentum pass itself.
+    ``P.body``) returns ``(Particles, (row [M], col [M], force [M, 3] N))``: over the list's
+    (fluid, block particle) pairs (``NeighbourList.body_row``; the whole wall-pair list if
+    ``config.body_pair_capacity`` is 0), the force on fluid particle ``row`` from the block
+    particle ``col`` that the momentum pass summed (``wall_pair_forces``; zero for other pairs);
+    ``coupling.boundary_particles.from_pair_forces`` turns it into the loads.
 
     ``v+ = v + dt/2 a``; ``x' = x + dt v+``; ``rho' = rho + dt Drho(x', v+)``;
     ``a' = a(x', v+, rho')``; ``v' = v+ + dt/2 a'``. Density and position are advanced with the
@@ -380,8 +395,7 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     def momentum_pass(rows: Rows, own, carry):
         pr = pairs(x_new, kind, nbrs.idx, config, rows=rows)
         t = pair_terms(pr, kind, params, config)
-        out = _acceleration_rows(pr, t, v_half, rho_new, p, P.vol, kind, params, config, body=P.body,
-                                 bodies=bodies, gradient=antuono)
+        out = _acceleration_rows(pr, t, v_half, rho_new, p, P.vol, kind, params, config, gradient=antuono)
         return carry, out if isinstance(out, tuple) else (out,)
 
     _, out = scan_rows(momentum_pass, nf, config.effective_row_tile, None)
@@ -391,4 +405,10 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     P = P.replace(x=x_new, v=v_new, a=a, rho=rho_new, drho_dt=drho_dt, p=p)
     if antuono and P.grad_rho is not None:  # for the next step's diffusion (one drift behind it: an O(dt) lag)
         P = P.replace(grad_rho=jnp.concatenate([out[-1], jnp.zeros((nw, 3), a_f.dtype)]))
-    return (P, out[1]) if bodies else P
+    if not bodies:
+        return P
+    sub = config.body_pair_capacity and config.coupling == Coupling.BOUNDARY_PARTICLES
+    bp = wall_pair_geometry(x_new, nbrs, config.grid, bodies=True) if sub else wp
+    body_j = take(P.body, bp.col)
+    on = bp.valid & (take(kind, bp.row) == Kind.FLUID) & jnp.isin(body_j, jnp.asarray(bodies, body_j.dtype))
+    return P, (bp.row, bp.col, wall_pair_forces(bp, on, v_half, rho_new, p, P.vol, params, config))
