@@ -157,8 +157,8 @@ def _guard(state: State, params: Params, config: Config, *, kick: bool) -> State
 
 
 def _load_bodies(config: Config) -> tuple[int, ...]:
-    """Blocks whose boundary-particle loads a WCSPH step takes from its momentum pass's pair terms (else ())."""
-    if config.coupling != Coupling.BOUNDARY_PARTICLES or config.scheme != Scheme.WCSPH:
+    """Blocks whose boundary-particle loads a step takes from its own force pass (else ())."""
+    if config.coupling != Coupling.BOUNDARY_PARTICLES:
         return ()
     from .coupling.penalty import coupled_blocks
 
@@ -176,8 +176,14 @@ def advance(state: State, params: Params, config: Config) -> State:
             # the loads come out of the momentum pass (the reaction of exactly what the fluid gets)
             from .coupling import boundary_particles
 
-            P, pair_forces = wcsph.advance(state.particles, state.nbrs, params, config, bodies=bodies)
-            load = boundary_particles.from_pair_forces(P, pair_forces, bodies, state.blocks)
+            if config.scheme == Scheme.WCSPH:
+                P, pair_forces = wcsph.advance(state.particles, state.nbrs, params, config, bodies=bodies)
+                load = boundary_particles.from_pair_forces(P, pair_forces, bodies, state.blocks)
+            else:  # the seed scheme's forces at the start of the step (symplectic Euler), per block
+                P, acc_bodies = seed.advance(state.particles, state.nbrs, params, config, bodies=bodies)
+                # lever arms from the positions the forces acted at (before the drift)
+                load = boundary_particles.from_accelerations(state.particles, acc_bodies, bodies, state.blocks, params,
+                                                             config)
             state = _guard(state.replace(particles=P, coupling=load), params, config, kick=True)
         else:
             P = _fluid(config).advance(state.particles, state.nbrs, params, config)

@@ -18,9 +18,9 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from ..sph import wcsph
+from ..sph import seed, wcsph
 from ..sph.neighbours import pairs
-from ..types import Config, CouplingState, Kind, NeighbourList, Params, Particles
+from ..types import Config, CouplingState, Kind, NeighbourList, Params, Particles, Scheme
 from ..blocks.rotation import quat_matrix
 from .penalty import coupled_blocks
 
@@ -41,13 +41,17 @@ def place(P: Particles, blocks, config: Config) -> Particles:
 def load(P: Particles, nbrs: NeighbourList, blocks, params: Params, config: Config) -> CouplingState:
     """Fluid force [B, 3] N and torque [B, 3] N m on each block, for the current particles.
 
-    A momentum sum per coupled block (used at priming, and by the seed scheme); a WCSPH step gets
-    the same pair terms from its own momentum pass (``wcsph.advance(..., bodies=...)``, ``from_pair_forces``).
+    A momentum sum per coupled block with the scheme's own pair forces (used at priming); a step
+    gets the same pair terms from its own force pass (``wcsph.advance(..., bodies=...)`` with
+    ``from_pair_forces``, ``seed.advance(..., bodies=...)`` with ``from_accelerations``).
     """
     nf = config.n_fluid
     pr = pairs(P.x, P.kind, nbrs.idx, config)
-    body_j = P.body[pr.idx]
     bodies = coupled_blocks(config)
+    if config.scheme == Scheme.SEED:
+        return from_accelerations(P, seed.body_accelerations(pr, P, bodies, params, config), bodies, blocks, params,
+                                  config)
+    body_j = P.body[pr.idx]
     acc = []
     for b in bodies:
         only_b = pr._replace(mask=pr.mask & (body_j == b))

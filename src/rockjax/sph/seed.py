@@ -60,7 +60,7 @@ from .kernels import SUPPORT_FACTOR, poly6, spiky_f, viscosity_laplacian
 from .neighbours import Pairs, pairs, transpose_sum, wrap_positions
 from .walls import adami_pressure
 
-__all__ = ["density", "pressure", "forces", "advance", "prime", "lattice_sum", "wall_constants",
+__all__ = ["density", "pressure", "forces", "body_accelerations", "advance", "prime", "lattice_sum", "wall_constants",
            "wall_repulsion", "energies", "LATTICE_REACH"]
 
 #: ``lattice_sum`` covers lattice offsets up to this many spacings per axis: valid for 2h <= 8 dx.
@@ -188,19 +188,41 @@ def forces(pr: Pairs, v, rho, p, vol, kind, params: Params, config: Config):
     return jnp.concatenate([acc, jnp.zeros((config.n_wall, 3), acc.dtype)])
 
 
-def prime(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -> Particles:
-    """Fill density, pressure and acceleration for the current positions."""
+def body_accelerations(pr: Pairs, P: Particles, bodies: tuple[int, ...], params: Params, config: Config):
+    """The part of each fluid particle's acceleration (``forces``) due to the particles carried by
+    each block in ``bodies`` (``P.body``; boundary-particle coupling): [n_fluid, len(bodies), 3]
+    m/s^2 -- pressure, viscosity and the Eq 22 repulsion of those pairs only, with the densities and
+    pressures of ``P``. Its reaction is the block's load (``coupling.boundary_particles``)."""
+    nf = config.n_fluid
+    body_j = P.body[pr.idx]
+    out = []
+    for b in bodies:
+        only_b = pr._replace(mask=pr.mask & (body_j == b))
+        out.append(forces(only_b, P.v, P.rho, P.p, P.vol, P.kind, params, config)[:nf] - params.gravity)
+    fluid = (P.kind[:nf] == Kind.FLUID)[:, None, None]
+    return jnp.where(fluid, jnp.stack(out, axis=1), 0.0)
+
+
+def prime(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *, bodies: tuple[int, ...] = ()):
+    """Fill density, pressure and acceleration for the current positions; with ``bodies`` also
+    return ``body_accelerations`` for them: ``(Particles, [n_fluid, len(bodies), 3])``."""
     pr = pairs(P.x, P.kind, nbrs.idx, config)
     rho = density(pr, P.rho, P.vol, P.kind, params, config)
     p, rho = pressure(pr, rho, P.kind, params, config)
     a = forces(pr, P.v, rho, p, P.vol, P.kind, params, config)
-    return P.replace(rho=rho, p=p, a=a, drho_dt=jnp.zeros_like(rho))
+    P = P.replace(rho=rho, p=p, a=a, drho_dt=jnp.zeros_like(rho))
+    return (P, body_accelerations(pr, P, bodies, params, config)) if bodies else P
 
 
-def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -> Particles:
-    """One symplectic-Euler step (seed Eq 21): v += dt a(x); x += dt v."""
-    P = prime(P, nbrs, params, config)
+def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *, bodies: tuple[int, ...] = ()):
+    """One symplectic-Euler step (seed Eq 21): v += dt a(x); x += dt v.
+
+    With ``bodies`` (blocks carrying boundary particles) returns ``(Particles, acc_bodies)``, the
+    part of the acceleration of this step due to each block's particles (``body_accelerations``)."""
+    out = prime(P, nbrs, params, config, bodies=bodies)
+    P = out[0] if bodies else out
     fluid = (P.kind == Kind.FLUID)[:, None]
     v_new = jnp.where(fluid, P.v + config.dt * P.a, P.v)
     x_new = wrap_positions(jnp.where(fluid, P.x + config.dt * v_new, P.x), config.grid)
-    return P.replace(x=x_new, v=v_new)
+    P = P.replace(x=x_new, v=v_new)
+    return (P, out[1]) if bodies else P
