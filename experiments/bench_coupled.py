@@ -5,7 +5,8 @@ step; the fluid alone (blocks and coupling removed from the Config, so they are 
 the blocks alone (no particles); and the blocks alone with the joint patch built from all
 contact slots instead of the gathered ``joint_patch_points`` (``ms_per_step_blocks_all_slots``);
 with boundary particles also the full step without the guard (``Config.coupling_guard``:
-``ms_per_step_guard`` = full - full without it). coupling = full - fluid - blocks. Each timing is the best of
+``ms_per_step_guard`` = full - full without it); their loads are summed over the list's
+(fluid, block particle) sub-list (``Config.body_pair_capacity`` slots, recorded). coupling = full - fluid - blocks. Each timing is the best of
 ``--reps`` runs of one jitted chunk of ``rebuild_every`` steps (list rebuild included), the three
 variants interleaved round by round.
 JSON lines out; compare the shares within one run (the machine is shared and noisy).
@@ -74,6 +75,8 @@ def bench(dx: float, coupling: str, reps: int) -> dict:
     per = lambda t: 1e3 * t / k  # ms per step
     t_coup = max(t_full - t_fluid - t_blocks, 0.0)
     extra = {"coupling_guard": guard}
+    if c.coupling == Coupling.BOUNDARY_PARTICLES:  # the (fluid, block particle) sub-list the loads are summed over
+        extra.update(body_pair_capacity=c.body_pair_capacity, wall_pair_capacity=c.wall_pair_capacity)
     if guard:
         extra.update(ms_per_step_full_without_guard=per(times[4]), ms_per_step_guard=per(t_full - times[4]))
     return {"bench": "coupled_step", "dx": dx, "coupling": coupling, "n_fluid": c.n_fluid, "n_wall": c.n_wall,

@@ -19,7 +19,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from ..sph import seed, wcsph
-from ..sph.neighbours import pairs
+from ..sph.neighbours import pairs, take
 from ..types import Config, CouplingState, Kind, NeighbourList, Params, Particles, Scheme
 from ..blocks.rotation import quat_matrix
 from .penalty import coupled_blocks
@@ -80,18 +80,22 @@ def from_accelerations(P: Particles, acc_bodies, bodies: tuple[int, ...], blocks
 
 
 def from_pair_forces(P: Particles, pair_forces, bodies: tuple[int, ...], blocks) -> CouplingState:
-    """Loads on the blocks ``bodies`` from ``pair_forces = (row [M], col [M], f [M, 3] N)``, the
-    force on fluid particle ``row`` from block particle ``col`` (``wcsph.advance(..., bodies=...)``;
-    zero for the pairs that do not count): ``F_b = -sum f``, ``T_b = -sum (x_row - X_b) x f`` over
-    the pairs whose ``col`` is carried by block b (a masked sum per block)."""
+    """Loads on the blocks ``bodies`` from ``pair_forces = (row [M], col [M], (fx, fy, fz) [M] N)``,
+    the force on fluid particle ``row`` from block particle ``col`` (``wcsph.advance(...,
+    bodies=...)``; zero for the pairs that do not count): ``F_b = -sum f``,
+    ``T_b = -sum (x_row - X_b) x f`` over the pairs whose ``col`` is carried by block b (masked
+    sums per block, component by component)."""
     row, col, f = pair_forces
-    body = P.body[col]
-    x = P.x[row]
+    body = take(P.body, col)
+    x = [take(P.x[:, a], row) for a in range(3)]
     n_blocks = blocks.x.shape[0]
     force = jnp.zeros((n_blocks, 3), P.x.dtype)
     torque = jnp.zeros((n_blocks, 3), P.x.dtype)
     for b in bodies:
-        fb = jnp.where((body == b)[:, None], f, 0.0)
-        force = force.at[b].set(-jnp.sum(fb, 0))
-        torque = torque.at[b].set(-jnp.sum(jnp.cross(x - blocks.x[b], fb), 0))
+        on = body == b
+        fb = [jnp.where(on, f[a], 0.0) for a in range(3)]
+        r = [x[a] - blocks.x[b, a] for a in range(3)]
+        t = [r[1] * fb[2] - r[2] * fb[1], r[2] * fb[0] - r[0] * fb[2], r[0] * fb[1] - r[1] * fb[0]]
+        force = force.at[b].set(-jnp.stack([jnp.sum(c) for c in fb]))
+        torque = torque.at[b].set(-jnp.stack([jnp.sum(c) for c in t]))
     return CouplingState(force=force, torque=torque)

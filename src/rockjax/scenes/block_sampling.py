@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["sample_block_particles", "inscribed_sphere"]
+__all__ = ["sample_block_particles", "inscribed_sphere", "submerged_pair_count"]
 
 
 def inscribed_sphere(normals: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, float]:
@@ -253,3 +253,20 @@ def _acute_cover(pts: np.ndarray, block, inner: np.ndarray, normals: np.ndarray,
 
 
 COVER = 0.5 * np.sqrt(3.0) * (1.0 + 1e-6)  # [dx] the farthest a point of a face is from the dx/2-deep lattice
+
+
+def submerged_pair_count(poly, points: np.ndarray, dx: float, radius: float) -> int:
+    """(block particle, water particle) pairs closer than ``radius`` [m] when the block lies in
+    still water: ``points`` [n, 3] its boundary particles (``sample_block_particles``, body frame)
+    and a cubic water lattice of spacing ``dx`` [m] filling every point more than dx/4 outside its
+    faces (water rests ~dx/2 outside). Sizes ``Config.body_pair_capacity`` (host, numpy)."""
+    from scipy.spatial import cKDTree
+
+    normals = np.asarray(poly.face_normal, float)
+    offsets = np.asarray(poly.face_offset, float)
+    lo = points.min(0) - radius - dx
+    hi = points.max(0) + radius + dx
+    axes = [np.arange(lo[a], hi[a], dx) for a in range(3)]
+    water = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    outside = np.max(water @ normals.T - offsets, axis=1) > 0.25 * dx
+    return int(cKDTree(points).count_neighbors(cKDTree(water[outside]), radius))

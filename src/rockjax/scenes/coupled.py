@@ -24,7 +24,7 @@ from ..types import (
     WallModel, float_dtype,
 )
 from .base import GRAVITY, Scene, _ceil8, _positive, make_state, particle_layout, stable_dt, water_params
-from .block_sampling import sample_block_particles
+from .block_sampling import sample_block_particles, submerged_pair_count
 from .shapes import fill, plane, shell
 
 __all__ = ["coupled_scene", "sliding_wedge", "floating_box", "block_drop", "piston_wavemaker", "block_on_incline",
@@ -160,10 +160,10 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         vol[len(fluid_x) + n_fixed_walls:] = np.concatenate(vb)
     body_pair_capacity = 0
     if coupling == Coupling.BOUNDARY_PARTICLES:
-        # at most a ball of water (lattice density) around each block particle: an upper bound
-        # (the block fills part of every ball); the driver grows it if compressed water needs more
-        ball = 4.0 / 3.0 * math.pi * ((cutoff + skin) / dx) ** 3
-        body_pair_capacity = min(_ceil8(len(np.concatenate(vb)) * ball), L["wall_pair_capacity"])
+        # the pairs each block has fully under still water, +25 % for compressed or disordered
+        # water (the driver grows the sub-list if a scene needs more)
+        pairs_b = sum(submerged_pair_count(polyhedra[b], pts_b, dx, cutoff + skin) for b, pts_b in zip(moving, xb))
+        body_pair_capacity = min(_ceil8(1.25 * pairs_b), L["wall_pair_capacity"])
     dt = stable_dt(params, scheme=scheme, viscosity=Viscosity.ARTIFICIAL, cfl=cfl)
     dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
     if dt_blocks < dt and "normal_stiffness" not in (block_kwargs or {}):

@@ -515,11 +515,14 @@ def body_pairs(row, col, count, body, config: Config):
     """
     Mb = config.body_pair_capacity
     on = (jnp.arange(row.shape[0]) < count) & (take(body, col) >= 0)
+    # slot of each kept pair: a blocked prefix sum (exact below 2^24) and a scatter that drops the
+    # rest (2x faster than jnp.nonzero's, whose cumulative sum is serial on the CPU)
+    pos = _cumsum_1d(on.astype(jnp.float32)).astype(jnp.int32) - 1
     n_on = jnp.sum(on, dtype=jnp.int32)
-    (sel,) = jnp.nonzero(on, size=Mb, fill_value=0)
-    valid = jnp.arange(Mb) < n_on
+    slot = jnp.where(on, pos, Mb + jnp.arange(row.shape[0], dtype=jnp.int32))  # unique, dropped past Mb
+    out = [jnp.zeros((Mb,), jnp.int32).at[slot].set(a, mode="drop", unique_indices=True) for a in (row, col)]
     status = jnp.where(n_on > Mb, Status.BODY_PAIR_OVERFLOW, 0).astype(jnp.int32)
-    return jnp.where(valid, take(row, sel), 0), jnp.where(valid, take(col, sel), 0), n_on, status
+    return out[0], out[1], n_on, status
 
 
 def rebuild(particles: Particles, config: Config):
