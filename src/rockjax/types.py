@@ -214,6 +214,10 @@ class Config:
         wall_pair_capacity: length of the flat list of (fluid row, wall neighbour) pairs that the
             WCSPH step sums the walls' quantities over (``NeighbourList.wall_row``); scene builders
             size it from the initial state, the driver grows it on ``WALL_PAIR_OVERFLOW``.
+        n_block_particles: the tail ``[n_particles - n_block_particles, n_particles)`` of the wall
+            segment that blocks carry (boundary particles, ``Particles.body >= 0``): the list build
+            sorts it apart from the fixed walls (which stay sorted) and merges the three sorted
+            segments, so moving block particles never force a re-sort of every wall (0: none).
         body_pair_capacity: with ``Coupling.BOUNDARY_PARTICLES``, length of the sub-list of those
             pairs whose wall particle is carried by a block (``NeighbourList.body_row``), over
             which a WCSPH step sums the loads on the blocks (0: no sub-list; the loads then come
@@ -256,6 +260,7 @@ class Config:
     neighbour_capacity: int = 96
     cell_capacity: int = 96
     wall_pair_capacity: int = 0
+    n_block_particles: int = 0
     body_pair_capacity: int = 0
     row_tile: Optional[int] = None
     scheme: Scheme = Scheme.WCSPH
@@ -290,6 +295,8 @@ class Config:
             raise ValueError("Config.neighbour_capacity and cell_capacity must be >= 1")
         if self.wall_pair_capacity < 0:
             raise ValueError(f"Config.wall_pair_capacity must be >= 0 (got {self.wall_pair_capacity})")
+        if not 0 <= self.n_block_particles <= self.n_wall:
+            raise ValueError(f"Config.n_block_particles must be in [0, n_wall = {self.n_wall}] (got {self.n_block_particles})")
         if self.body_pair_capacity < 0:
             raise ValueError(f"Config.body_pair_capacity must be >= 0 (got {self.body_pair_capacity})")
         if self.row_tile is not None and self.row_tile < 0:

@@ -35,14 +35,15 @@ def _brute(x, nf, radius, lengths, periodic):
 _jit_rebuild = jax.jit(rebuild, static_argnums=1)
 
 
-def _check(x, n_fluid, periodic, radius=0.1, K=64, C=64, box=(1.0, 0.6, 0.5), pad_kinds=None, M=None):
+def _check(x, n_fluid, periodic, radius=0.1, K=64, C=64, box=(1.0, 0.6, 0.5), pad_kinds=None, M=None, n_block=0):
     x = np.asarray(x, np.float64)
     grid = GridSpec.covering((0, 0, 0), box, min_cell=radius, periodic=periodic)
     kind = np.array([Kind.FLUID] * n_fluid + [Kind.WALL] * (len(x) - n_fluid), np.int32)
     if pad_kinds is not None:
         kind[pad_kinds] = Kind.PAD
     cfg = Config(n_fluid=n_fluid, n_wall=len(x) - n_fluid, dt=1e-4, grid=grid, cutoff=radius, skin=0.0,
-                 neighbour_capacity=K, cell_capacity=C, wall_pair_capacity=n_fluid * K if M is None else M)
+                 neighbour_capacity=K, cell_capacity=C, wall_pair_capacity=n_fluid * K if M is None else M,
+                 n_block_particles=n_block)
     P, nbrs, status = _jit_rebuild(_particles(x, kind), cfg)
     xs = np.asarray(P.x, np.float64)
     idx = np.asarray(nbrs.idx)
@@ -98,6 +99,41 @@ def test_matches_brute_force(seed, periodic_y, periodic_x, n, n_wall):
             if periodic[a] and len(d):
                 d[:, a] -= cfg.grid.lengths[a] * np.round(d[:, a] / cfg.grid.lengths[a])
         assert np.all(np.abs(np.linalg.norm(d, axis=1) - 0.1) < 1e-5), (i, got ^ want)
+
+
+@pytest.mark.parametrize("seed,n_wall,n_block", [(0, 60, 20), (1, 60, 60), (2, 40, 1)])
+def test_block_particle_tail_matches_brute_force(seed, n_wall, n_block):
+    """With ``Config.n_block_particles`` the walls' tail (block particles, moving) is sorted apart
+    from the fixed walls and the three segments are merged: the list still equals brute force,
+    from an unsorted start and after the tail moved (a second build from the sorted state)."""
+    from rockjax.sph.neighbours import search_grid, _ids
+
+    rng = np.random.default_rng(seed)
+    box = np.array([1.0, 0.6, 0.5])
+    x = rng.uniform(0, 1, (NF_SEG + n_wall, 3)) * box
+    cfg, xs, idx, kinds, expected, status, _ = _check(x, NF_SEG, (False, True, False), box=tuple(box), n_block=n_block)
+    assert status == 0, Status.describe(status)
+    for i in range(NF_SEG):
+        assert set(idx[i].tolist()) - {i} == expected[i], i
+    # each segment of the rebuilt particles is sorted by sub-cell
+    ids = np.asarray(_ids(jax.numpy.asarray(xs, jax.numpy.float32), jax.numpy.asarray(kinds), search_grid(cfg.grid))[0])
+    n = len(xs)
+    for a, b in ((0, NF_SEG), (NF_SEG, n - n_block), (n - n_block, n)):
+        assert np.all(np.diff(ids[a:b]) >= 0), (a, b)
+    # the block particles move; the fixed walls do not: rebuild from the sorted state
+    xs2 = xs.copy()
+    xs2[n - n_block:] = rng.uniform(0, 1, (n_block, 3)) * box
+    P, nbrs, status = _jit_rebuild(_particles(xs2, kinds), cfg)
+    assert int(status) == 0
+    xs3 = np.asarray(P.x, np.float64)
+    want = _brute(xs3, NF_SEG, 0.1, cfg.grid.lengths, (False, True, False))
+    got_idx = np.asarray(nbrs.idx)
+    for i in range(NF_SEG):
+        got = set(got_idx[i].tolist()) - {i}
+        d = xs3[list(got ^ want[i])] - xs3[i] if got ^ want[i] else np.zeros((0, 3))
+        d[:, 1] -= cfg.grid.lengths[1] * np.round(d[:, 1] / cfg.grid.lengths[1])
+        assert np.all(np.abs(np.linalg.norm(d, axis=1) - 0.1) < 1e-5), (i, got ^ want[i])
+    np.testing.assert_array_equal(np.asarray(P.x)[NF_SEG:n - n_block], xs[NF_SEG:n - n_block])  # fixed walls kept
 
 
 def test_clustered_cells_and_padding():

@@ -158,12 +158,13 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     if coupling == Coupling.BOUNDARY_PARTICLES:  # each block particle: its share of the block's shell
         vol = vol.copy()
         vol[len(fluid_x) + n_fixed_walls:] = np.concatenate(vb)
-    body_pair_capacity = 0
+    body_pair_capacity = n_block_particles = 0
     if coupling == Coupling.BOUNDARY_PARTICLES:
         # the pairs each block has fully under still water, +25 % for compressed or disordered
         # water (the driver grows the sub-list if a scene needs more)
         pairs_b = sum(submerged_pair_count(polyhedra[b], pts_b, dx, cutoff + skin) for b, pts_b in zip(moving, xb))
         body_pair_capacity = min(_ceil8(1.25 * pairs_b), L["wall_pair_capacity"])
+        n_block_particles = len(wall_x) - n_fixed_walls  # the walls' tail (sorted apart at each list build)
     dt = stable_dt(params, scheme=scheme, viscosity=Viscosity.ARTIFICIAL, cfl=cfl)
     dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
     if dt_blocks < dt and "normal_stiffness" not in (block_kwargs or {}):
@@ -180,7 +181,8 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     meta["block_normal_stiffness"] = float(bparams.normal_stiffness)
     config = Config(n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
                     rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap,
-                    wall_pair_capacity=L["wall_pair_capacity"], body_pair_capacity=body_pair_capacity, scheme=scheme, kernel=KernelKind.WENDLAND_C2, viscosity=Viscosity.ARTIFICIAL, wall_model=WallModel.ADAMI,
+                    wall_pair_capacity=L["wall_pair_capacity"], body_pair_capacity=body_pair_capacity,
+                    n_block_particles=n_block_particles, scheme=scheme, kernel=KernelKind.WENDLAND_C2, viscosity=Viscosity.ARTIFICIAL, wall_model=WallModel.ADAMI,
                     density_diffusion=DensityDiffusion.FOURTAKAS, cfl=cfl, blocks=bconfig, coupling=coupling,
                     coupling_guard=bool(coupling_guard), guard_fixed=bool(guard_fixed))
     state = make_state(config=config, x=x, kind=kind, vol=vol, rho=rho)

@@ -67,23 +67,36 @@ def _ids(x, kind, grid: GridSpec):
     return jnp.where(kind == Kind.PAD, grid.n_cells, _flat(c, grid.shape)), c, inside
 
 
-def sort_by_cell(particles: Particles, config: Config) -> Particles:
-    """Reorder each segment (fluid, walls) by search sub-cell id (stable); padding goes to its segment's end.
+def segments(config: Config) -> list[tuple[int, int]]:
+    """The sorted segments ``[(start, end), ...]`` of the particle arrays, in tie order: fluid,
+    fixed walls, and (``Config.n_block_particles``) the block particles at the end of the walls."""
+    nf, n = config.n_fluid, config.n_particles
+    nb = config.n_block_particles
+    return [(a, b) for a, b in ((0, nf), (nf, n - nb), (n - nb, n)) if b > a]
 
-    The wall segment is re-sorted only when it is out of order (walls that do not move stay sorted
-    after the first build, and an argsort of them would cost as much as the fluid's).
+
+def sort_by_cell(particles: Particles, config: Config) -> Particles:
+    """Reorder each segment (fluid, fixed walls, block particles) by search sub-cell id (stable);
+    padding goes to its segment's end.
+
+    The fixed walls are re-sorted only when out of order (walls that do not move stay sorted after
+    the first build, and an argsort of them would cost as much as the fluid's); the block
+    particles (``Config.n_block_particles``), which move, are sorted apart at every build.
     """
     sg = search_grid(config.grid)
     ids, _, _ = _ids(jax.lax.stop_gradient(particles.x), particles.kind, sg)
     nf = config.n_fluid
-    if not config.n_wall:
-        perm = jnp.argsort(ids, stable=True)
-    else:
-        idw = ids[nf:]
-        is_sorted = jnp.all(idw[1:] >= idw[:-1])
-        perm_w = jax.lax.cond(is_sorted, lambda a: jnp.arange(a.shape[0], dtype=jnp.int32),
-                              lambda a: jnp.argsort(a, stable=True).astype(jnp.int32), idw)
-        perm = jnp.concatenate([jnp.argsort(ids[:nf], stable=True).astype(jnp.int32), nf + perm_w])
+    perms = []
+    for a, b in segments(config):
+        seg = ids[a:b]
+        if a == nf and b - a > 1 and (b < config.n_particles or not config.n_block_particles):  # fixed walls
+            is_sorted = jnp.all(seg[1:] >= seg[:-1])
+            p = jax.lax.cond(is_sorted, lambda s: jnp.arange(s.shape[0], dtype=jnp.int32),
+                             lambda s: jnp.argsort(s, stable=True).astype(jnp.int32), seg)
+        else:
+            p = jnp.argsort(seg, stable=True).astype(jnp.int32)
+        perms.append(a + p)
+    perm = jnp.concatenate(perms)
     return jax.tree_util.tree_map(lambda a: a[perm], particles)
 
 
@@ -403,16 +416,25 @@ def build(x, kind, config: Config):
     """
     sg = search_grid(config.grid)
     x = jax.lax.stop_gradient(x)
-    nf, nw, n = config.n_fluid, config.n_wall, config.n_particles
+    nf, n = config.n_fluid, config.n_particles
     K = config.neighbour_capacity
     ids, c, inside = _ids(x, kind, sg)
-    # merge the two sorted segments: position of each particle in the joint cell order
+    # merge the sorted segments: position of each particle in the joint cell order (its rank in
+    # its segment plus, per other segment, the particles there with a smaller id -- or an equal
+    # one in an earlier segment)
     ar_f = jnp.arange(nf, dtype=jnp.int32)
-    pos_f = ar_f + jnp.searchsorted(ids[nf:], ids[:nf], side="left").astype(jnp.int32) if nw else ar_f
-    if nw:
-        pos_w = jnp.arange(nw, dtype=jnp.int32) + jnp.searchsorted(ids[:nf], ids[nf:], side="right").astype(jnp.int32)
-        perm = jnp.zeros((n,), jnp.int32).at[jnp.concatenate([pos_f, pos_w])].set(
-            jnp.arange(n, dtype=jnp.int32), unique_indices=True)
+    segs = segments(config)
+    pos = []
+    for k, (a, b) in enumerate(segs):
+        p = jnp.arange(b - a, dtype=jnp.int32)
+        for m, (a2, b2) in enumerate(segs):
+            if m != k:
+                p = p + jnp.searchsorted(ids[a2:b2], ids[a:b], side="right" if m < k else "left").astype(jnp.int32)
+        pos.append(p)
+    pos_f = pos[0] if nf else ar_f
+    if len(segs) > 1:
+        perm = jnp.zeros((n,), jnp.int32).at[jnp.concatenate(pos)].set(jnp.arange(n, dtype=jnp.int32),
+                                                                        unique_indices=True)
     else:
         perm = jnp.arange(n, dtype=jnp.int32)
     starts = _cell_starts(ids, sg.n_cells)
