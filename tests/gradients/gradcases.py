@@ -129,14 +129,15 @@ WEDGE_SLOPE_DEG = 40.0
 WEDGE_STEPS = 248  # 31 list rebuilds x 8 steps x dt 7.6e-4 s -> 0.19 s
 
 
-def tiny_wedge():
+def tiny_wedge(coupling="penalty"):
     """``scenes.sliding_wedge`` at dx = 0.05 m: a 0.2 m wedge on a 40 degree slope (friction 15
     deg), front at the shoreline, 0.2 m deep water, 0.4 m flat (408 fluid, 4390 wall particles),
-    seed Eq 22 penalty coupling."""
-    from rockjax import scenes
+    seed Eq 22 penalty coupling (or ``coupling="boundary_particles"``)."""
+    from rockjax import Coupling, scenes
 
     return scenes.sliding_wedge(dx=0.05, slope_angle_deg=WEDGE_SLOPE_DEG, block_length=0.2, block_width=0.2,
-                                water_depth=0.2, flat_length=0.4, flume_width=0.4, start_distance=0.0)
+                                water_depth=0.2, flat_length=0.4, flume_width=0.4, start_distance=0.0,
+                                coupling=Coupling(coupling))
 
 
 def wedge_observe(scene):

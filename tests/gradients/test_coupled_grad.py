@@ -1,7 +1,8 @@
 """Gradients through the coupled water + block rollout (float64) against finite differences.
 
 Scene (``gradcases.tiny_wedge``): a 0.2 m wedge sliding down a 40 degree slope into 0.2 m of
-water at dx = 0.05 m (408 fluid, 4390 wall particles; seed Eq 22 penalty coupling, WCSPH),
+water at dx = 0.05 m (408 fluid, 4390 wall particles; WCSPH; each coupling: seed Eq 22 penalty,
+and boundary particles),
 248 steps (0.19 s). Observables: the wedge's down-slope coordinate at the end, and the
 free-surface elevation at a gauge 0.15 m beyond the shoreline; gradients w.r.t. the wedge density, the wedge-slope friction angle and
 (since 2026-11-25, the scene's joint water being on) the joint water level, whose pressure acts on
@@ -18,6 +19,10 @@ at 0): wedge position w.r.t. density 2.6e-8 (AD 4.504e-7 m per kg/m^3), friction
 (AD -0.1364 m/rad), joint water level 8.0e-5 (AD 0.01361 m/m); gauge elevation w.r.t. density
 1.5e-7 (AD 2.97e-8 m per kg/m^3), friction angle 5.3e-7 (AD -0.01142 m/rad), joint water level
 7.1e-5 (AD 1.26e-3 m/m).
+Boundary particles (2026-11-25, the loads from the (fluid, block particle) sub-list, 99 s): wedge
+position w.r.t. density 2.1e-8 (AD 4.860e-7), friction angle 1.7e-9 (AD -0.1366), joint water
+level 7.9e-5 (AD 0.01373); gauge elevation 5.7e-9 (AD 6.18e-8), 2.3e-7 (AD -0.01521), 5.8e-5
+(AD 1.80e-3).
 """
 
 from __future__ import annotations
@@ -37,9 +42,9 @@ FD_STEP = 1e-4
 FIELDS = ["blocks.density[0]", "blocks.friction_angle", "blocks.joint_water_level"]
 
 
-@pytest.fixture(scope="module")
-def wedge(x64):
-    scene = gc.tiny_wedge()
+@pytest.fixture(scope="module", params=["penalty", "boundary_particles"])
+def wedge(x64, request):
+    scene = gc.tiny_wedge(request.param)
     observe = gc.wedge_observe(scene)
     vg = gc.wedge_functional(scene.config, observe)
     nb = gc.WEDGE_STEPS // scene.config.rebuild_every
