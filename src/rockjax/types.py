@@ -221,7 +221,7 @@ class Config:
         body_pair_capacity: with ``Coupling.BOUNDARY_PARTICLES``, length of the sub-list of those
             pairs whose wall particle is carried by a block (``NeighbourList.body_row``), over
             which a WCSPH step sums the loads on the blocks (0: no sub-list; the loads then come
-            from a masked sum over every pair); scene builders size it, the driver grows it on
+            from the whole wall-pair list); scene builders size it, the driver grows it on
             ``BODY_PAIR_OVERFLOW``.
         row_tile: the WCSPH step sums over the pairs in blocks of this many fluid rows, so that
             the per-pair intermediates stay in cache (0: all rows at once). None (default):
@@ -314,6 +314,12 @@ class Config:
     def n_particles(self) -> int:
         """N = n_fluid + n_wall."""
         return self.n_fluid + self.n_wall
+
+    @property
+    def has_body_pairs(self) -> bool:
+        """Whether list builds fill the (fluid, block particle) sub-list (``NeighbourList.body_row``)
+        and a step sums the blocks' loads over it."""
+        return self.body_pair_capacity > 0 and self.coupling == Coupling.BOUNDARY_PARTICLES
 
     @property
     def has_particles(self) -> bool:

@@ -40,7 +40,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..types import Config, Coupling, GridSpec, Kind, NeighbourList, Particles, Status
+from ..types import Config, GridSpec, Kind, NeighbourList, Particles, Status
 
 __all__ = ["cell_coords", "search_grid", "range_capacity", "sort_by_cell", "build", "rebuild", "pair_geometry", "safe_norm", "wrap_positions",
            "min_image", "transpose_sum", "take", "Pairs", "pairs", "Rows", "scan_rows", "wall_pairs"]
@@ -85,11 +85,11 @@ def sort_by_cell(particles: Particles, config: Config) -> Particles:
     """
     sg = search_grid(config.grid)
     ids, _, _ = _ids(jax.lax.stop_gradient(particles.x), particles.kind, sg)
-    nf = config.n_fluid
+    nf, fixed_end = config.n_fluid, config.n_particles - config.n_block_particles
     perms = []
     for a, b in segments(config):
         seg = ids[a:b]
-        if a == nf and b - a > 1 and (b < config.n_particles or not config.n_block_particles):  # fixed walls
+        if (a, b) == (nf, fixed_end):  # the fixed walls
             is_sorted = jnp.all(seg[1:] >= seg[:-1])
             p = jax.lax.cond(is_sorted, lambda s: jnp.arange(s.shape[0], dtype=jnp.int32),
                              lambda s: jnp.argsort(s, stable=True).astype(jnp.int32), seg)
@@ -552,7 +552,7 @@ def rebuild(particles: Particles, config: Config):
     particles = sort_by_cell(particles, config)
     idx, status, max_count, run = build(particles.x, particles.kind, config)
     row, col, count, wall_status = wall_pairs(idx, particles.kind, config)
-    if config.body_pair_capacity and config.coupling == Coupling.BOUNDARY_PARTICLES:
+    if config.has_body_pairs:
         brow, bcol, bcount, body_status = body_pairs(row, col, count, particles.body, config)
     else:  # no sub-list (kept at its configured length)
         brow = bcol = jnp.zeros((config.body_pair_capacity,), jnp.int32)

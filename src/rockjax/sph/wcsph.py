@@ -24,7 +24,7 @@ from typing import NamedTuple, Optional
 import jax
 import jax.numpy as jnp
 
-from ..types import Config, Coupling, DensityDiffusion, Kind, NeighbourList, Params, Particles, Viscosity, WallModel
+from ..types import Config, DensityDiffusion, Kind, NeighbourList, Params, Particles, Viscosity, WallModel
 from .eos import tait_density, tait_pressure
 from .kernels import kernel_pair
 from .neighbours import Pairs, Rows, neighbour_kind, pairs, scan_rows, take, transpose_sum, wrap_positions
@@ -413,8 +413,7 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
         P = P.replace(grad_rho=jnp.concatenate([out[-1], jnp.zeros((nw, 3), a_f.dtype)]))
     if not bodies:
         return P
-    sub = config.body_pair_capacity and config.coupling == Coupling.BOUNDARY_PARTICLES
-    bp = wall_pair_geometry(x_new, nbrs, config.grid, bodies=True) if sub else wp
+    bp = wall_pair_geometry(x_new, nbrs, config.grid, bodies=True) if config.has_body_pairs else wp
     body_j = take(P.body, bp.col)
     on = bp.valid & (take(kind, bp.row) == Kind.FLUID) & jnp.isin(body_j, jnp.asarray(bodies, body_j.dtype))
     return P, (bp.row, bp.col, wall_pair_forces(bp, on, v_half, rho_new, p, P.vol, params, config))
