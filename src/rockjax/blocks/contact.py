@@ -50,7 +50,7 @@ from .broadphase import candidate_pairs, pairs_are_static
 from .fcp import fcp_pair
 from .joint_water import joint_water_load
 from .model import BlockConfig, BlockParams, BlockState, Motion, block_mass, world_planes, world_vertices
-from .rotation import safe_norm
+from .rotation import project, safe_norm
 
 __all__ = ["ContactHistory", "contact_forces", "pair_contacts", "with_history"]
 
@@ -75,16 +75,16 @@ def with_history(state: BlockState, h: ContactHistory) -> BlockState:
 
 def _inside(pts, N, D, fm, tol):
     """[...] bool: points [...,3] inside the planes N [F,3], D [F] (``N.x - D <= tol``)."""
-    s = jnp.einsum("...i,fi->...f", pts, N) - D
+    s = project(pts, N) - D
     return jnp.all(jnp.where(fm, s <= tol, True), -1)
 
 
 def _exit_distance(X, N, D, fm, u):
     """[V] m: distance along the unit direction u from each point X [V,3] to the boundary of the
     polyhedron (N [F,3], D [F]), for points inside it (faces with N.u <= 1e-3 are never crossed)."""
-    den = N @ u  # [F]
+    den = project(N, u)  # [F]
     ok = fm & (den > 1e-3)
-    t = (D[None, :] - X @ N.T) / jnp.where(ok, den, 1.0)[None, :]
+    t = (D[None, :] - project(X, N)) / jnp.where(ok, den, 1.0)[None, :]
     return jnp.min(jnp.where(ok[None, :], t, 1e30), -1)
 
 
@@ -127,7 +127,7 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
         b0, b1 = Xj[ej[:, 0]], Xj[ej[:, 1]]
 
         def p2(x):
-            return jnp.stack([x @ t1, x @ t2], -1)
+            return jnp.stack([project(x, t1), project(x, t2)], -1)
 
         A0, dA = p2(a0), p2(a1 - a0)
         B0, dB = p2(b0), p2(b1 - b0)
@@ -147,7 +147,7 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
         ok = ok & (s > eps) & (s < 1 - eps) & (u > eps) & (u < 1 - eps)
         p = a0[:, None, :] + s[..., None] * (a1 - a0)[:, None, :]
         q = b0[None, :, :] + u[..., None] * (b1 - b0)[None, :, :]
-        de = (p - q) @ n
+        de = project(p - q, n)
         ok = ok & (de > -2.0 * slack) & _inside(p, Nj, Dj, fmj, tol_j) & _inside(q, Ni, Di, fmi, tol_i)
         pts.append((0.5 * (p + q)).reshape(-1, 3))
         dep.append(de.reshape(-1))
@@ -173,8 +173,8 @@ def _clipped_centre(X, e, em, N, D, fm):
     """Sum of the end points of the edges (X [V,3], e [nE,2]) clipped to the polyhedron (N, D) and
     their count: ``(sum [3], count [])`` (Cyrus-Beck clipping)."""
     a0, a1 = X[e[:, 0]], X[e[:, 1]]
-    s0 = a0 @ N.T - D  # [nE, F]
-    s1 = a1 @ N.T - D
+    s0 = project(a0, N) - D  # [nE, F]
+    s1 = project(a1, N) - D
     out = fm & (s0 > 0) & (s1 > 0)
     den = jnp.where(jnp.abs(s0 - s1) > 0, s0 - s1, 1.0)
     t = s0 / den

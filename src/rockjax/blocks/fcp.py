@@ -27,6 +27,8 @@ from __future__ import annotations
 import jax.numpy as jnp
 from jax import lax
 
+from .rotation import project
+
 __all__ = ["fcp_pair", "gap_along"]
 
 _BIG = 1e30
@@ -48,8 +50,8 @@ def gap_along(normals, Xi, mi, Xj, mj):
     Returns:
       ``(g_plus, g_minus)`` [C] m: ``min_j n.x - max_i n.x`` for n and for -n.
     """
-    pi = Xi @ normals.T  # [V, C]
-    pj = Xj @ normals.T
+    pi = project(Xi, normals)  # [V, C]
+    pj = project(Xj, normals)
     max_i = jnp.max(jnp.where(mi[:, None], pi, -_BIG), 0)
     min_i = jnp.min(jnp.where(mi[:, None], pi, _BIG), 0)
     max_j = jnp.max(jnp.where(mj[:, None], pj, -_BIG), 0)
@@ -76,8 +78,8 @@ def _local_candidates(n, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, sca
     crosses of the edges touching the support set of i with those touching the support set of j
     (type c), the bisector of AB (type a) and AB minus its part along each such edge (type d).
     """
-    pi = Xi @ n
-    pj = Xj @ n
+    pi = project(Xi, n)
+    pj = project(Xj, n)
     sup_i = jnp.max(jnp.where(mi, pi, -_BIG))
     sup_j = jnp.min(jnp.where(mj, pj, _BIG))
     tau = 64 * jnp.finfo(Xi.dtype).eps * scale
@@ -145,8 +147,8 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
     # differentiable last round on the live geometry (ties pick a geometric candidate, not n_s)
     c, ok = _local_candidates(n_s, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, sscale)
     n, _ = _best(c, ok, Xi, mi, Xj, mj)
-    pi = Xi @ n
-    pj = Xj @ n
+    pi = project(Xi, n)
+    pj = project(Xj, n)
     sup_i = jnp.max(jnp.where(mi, pi, -_BIG))
     sup_j = jnp.min(jnp.where(mj, pj, _BIG))
     return dict(normal=n, gap=sup_j - sup_i, support_i=sup_i, support_j=sup_j, changes=changes)
