@@ -2,7 +2,7 @@
 1000 blocks, FCP iterations vs accuracy, and (if ``mujoco`` is importable) the same box pile in
 MuJoCo's CPU simulator as a reference ratio.  Prints JSON lines.
 
-    .venv/bin/python experiments/bench_blocks.py [--sizes 10 100 1000] [--steps 200]
+    .venv/bin/python experiments/bench_blocks.py [--sizes 10 100 1000] [--steps 200] [--out FILE.jsonl]
 
 Pile: N boxes (0.18-0.2 m, 2650 kg/m^3) stacked ~4 high in columns in contact on a fixed floor
 slab, with 2 mm lateral jitter (no initial overlap); k_n = 1e7 N/m, dt = stable_dt.  Timed
@@ -13,7 +13,6 @@ after one warm-up chunk (compile excluded).  "contact_evals" counts narrow-phase
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import sys
@@ -24,6 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import rockjax.blocks as rb
+from jsonl_out import emit
 from rockjax.blocks import Broadphase, Motion, box, make_blocks, slab
 from rockjax.types import Status
 
@@ -156,17 +156,23 @@ def main():
     ap.add_argument("--sizes", type=int, nargs="+", default=[10, 100, 1000])
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--no-fcp", action="store_true")
+    ap.add_argument("--out", default=None, help="also append the records (with date, command, load) to this file")
     a = ap.parse_args()
+    stamp = dict(date=time.strftime("%Y-%m-%d"), cmd="experiments/bench_blocks.py " + " ".join(sys.argv[1:]))
+
+    def out(rec):
+        emit(dict(rec, **stamp, load_avg_1m_at_save=os.getloadavg()[0]), a.out)
+
     for n in a.sizes:
         r = run_blocks(n, a.steps if n < 1000 else max(50, a.steps // 4))
-        print(json.dumps(r), flush=True)
+        out(r)
         m = run_mujoco(n, a.steps, r["dt"])
         if "block_steps_per_s" in m:
             m["ratio_rockjax_over_mujoco"] = r["block_steps_per_s"] / m["block_steps_per_s"]
-        print(json.dumps(m), flush=True)
+        out(m)
     if not a.no_fcp:
         for r in fcp_accuracy():
-            print(json.dumps(r), flush=True)
+            out(r)
 
 
 if __name__ == "__main__":
