@@ -452,11 +452,15 @@ def sec_piston(doc: Doc):
     recs = doc.records("piston_transfer.jsonl", "python experiments/piston_transfer.py")
     if recs is None:
         return
-    rows = [[r.get("coupling"), r.get("dx"), r.get("kh"), r.get("depth"), r.get("stroke"), r.get("n_fluid"),
-             r.get("H_over_S"), r.get("theory_H_over_S"), r.get("rel_error"), r.get("wall_s"), r.get("load")]
+    doc.p("`experiments/piston_transfer.py`: H/S at a gauge 4 depths from the paddle, fitted over the whole periods "
+          "from the front's arrival + 2 periods until the beach reflection could return (`periods`); "
+          "`wall visc.` = `FluidParams.wall_viscosity` (0: free-slip walls, as linear theory is inviscid).")
+    rows = [[r.get("coupling"), r.get("dx"), r.get("h_factor", "–"), r.get("wall_viscosity", "–"), r.get("kh"),
+             r.get("depth"), r.get("stroke"), r.get("gauge_x"), r.get("n_fluid"), r.get("n_periods"), r.get("H_over_S"),
+             r.get("theory_H_over_S"), r.get("rel_error"), r.get("wall_s"), r.get("load")]
             for r in recs]
-    doc.p(table(["coupling", "dx [m]", "kh", "depth [m]", "stroke [m]", "n_fluid", "H/S", "theory H/S",
-                 "rel. error", "wall s", "load"], rows))
+    doc.p(table(["coupling", "dx [m]", "h / dx", "wall visc.", "kh", "depth [m]", "stroke [m]", "gauge x [m]",
+                 "n_fluid", "periods", "H/S", "theory H/S", "rel. error", "wall s", "load"], rows))
     recs = doc.records("piston_decay.jsonl", "python experiments/piston_decay.py")
     if recs is None:
         return

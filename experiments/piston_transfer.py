@@ -5,7 +5,7 @@ gauge > 3 depths from the paddle, and compares the wave height of the steady wav
 beach reflection returns) with H/S = 2 (cosh 2kh - 1) / (sinh 2kh + 2kh), interpolated from
 ``data/validation/piston_wavemaker_transfer.csv`` (``rockjax.validation``).
 
-    python experiments/piston_transfer.py --dx 0.03 --kh 1.0 --coupling penalty
+    python experiments/piston_transfer.py --dx 0.03 --kh 1.0 --coupling boundary_particles
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from rockjax.validation import linear_wave, piston_transfer, wave_height
 
 
 def run(*, dx: float, kh: float, depth: float, stroke: float, coupling: str, flat_length: float,
-        gauge_depths: float = 4.0, t_end: float | None = None) -> dict:
+        gauge_depths: float = 4.0, t_end: float | None = None, wall_viscosity: float = 0.0) -> dict:
     import rockjax as rj
     from rockjax.observables import scene_observer
 
@@ -29,12 +29,16 @@ def run(*, dx: float, kh: float, depth: float, stroke: float, coupling: str, fla
     x_g = gauge_depths * depth
     scene = rj.scenes.piston_wavemaker(dx=dx, stroke=stroke, period=T, water_depth=depth, flat_length=flat_length,
                                        beach_slope=0.3, coupling=rj.Coupling(coupling),
-                                       gauge_x=[x_g])
+                                       gauge_x=[x_g], wall_viscosity=wall_viscosity)
     # the developed train at the gauge: from the front's arrival + 2 periods (the front is spread
     # by dispersion) until the reflection off the beach (~flat_length away) could return
     t_arrive = x_g / cg
     t_reflect = (2 * flat_length - x_g) / cg
     t_end = t_reflect if t_end is None else t_end
+    if min(t_end, t_reflect) - (t_arrive + 2 * T) < T:
+        need = x_g + 1.5 * T * cg
+        raise ValueError(f"flat_length {flat_length} m leaves less than one developed period at the gauge "
+                         f"(x = {x_g} m, c_g = {cg:.3f} m/s, T = {T:.3f} s): use flat_length >= {need:.2f} m")
     t0 = time.perf_counter()
     res = rj.simulate(scene, t_end=t_end, frame_dt=T / 24, observe=scene_observer(scene.meta), progress=False)
     wall = time.perf_counter() - t0
@@ -42,6 +46,7 @@ def run(*, dx: float, kh: float, depth: float, stroke: float, coupling: str, fla
     H, H2, n = wave_height(res.times, eta, period=T, t_start=t_arrive + 2 * T, t_stop=min(t_end, t_reflect))
     theory = piston_transfer(kh)
     return dict(kh=kh, depth=depth, period=T, stroke=stroke, dx=dx, coupling=coupling, gauge_x=x_g,
+                wall_viscosity=wall_viscosity, h_factor=float(scene.params.fluid.h) / dx,
                 n_fluid=scene.config.n_fluid, t_end=t_end, window=[t_arrive + 2 * T, min(t_end, t_reflect)], n_periods=n,
                 H=H, H_over_S=H / stroke, H2_over_S=H2 / stroke, theory_H_over_S=theory, rel_error=(H / stroke - theory) / theory,
                 wall_s=wall, load=os.getloadavg()[0])
@@ -53,11 +58,15 @@ def main():
     ap.add_argument("--kh", type=float, default=1.0)
     ap.add_argument("--depth", type=float, default=0.3)
     ap.add_argument("--stroke", type=float, default=0.04)
-    ap.add_argument("--flat-length", type=float, default=3.0)
-    ap.add_argument("--coupling", default="penalty", choices=["penalty", "boundary_particles"])
+    ap.add_argument("--flat-length", type=float, default=4.5,
+                    help="m; the developed train needs the beach reflection to return late enough")
+    ap.add_argument("--coupling", default="boundary_particles", choices=["penalty", "boundary_particles"])
+    ap.add_argument("--wall-viscosity", type=float, default=0.0,
+                    help="FluidParams.wall_viscosity (default 0: free-slip walls, as linear theory is inviscid; "
+                         "the scene's default 1 damps the train along the flume)")
     a = ap.parse_args()
     print(json.dumps(run(dx=a.dx, kh=a.kh, depth=a.depth, stroke=a.stroke, coupling=a.coupling,
-                         flat_length=a.flat_length)), flush=True)
+                         flat_length=a.flat_length, wall_viscosity=a.wall_viscosity)), flush=True)
 
 
 if __name__ == "__main__":

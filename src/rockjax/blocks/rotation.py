@@ -1,4 +1,5 @@
-"""Unit-quaternion helpers for block orientations (jit/vmap/grad-safe) and a host constructor.
+"""Unit-quaternion helpers for block orientations (jit/vmap/grad-safe), a host constructor, and
+the small vector helpers the narrow phase shares (``safe_norm``, ``project``).
 
 Convention: ``q = (w, x, y, z)``, a unit quaternion rotating BODY-frame vectors into the WORLD
 frame: ``x_world = R(q) @ x_body + centroid``.
