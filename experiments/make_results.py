@@ -620,8 +620,27 @@ def sec_stress(doc: Doc):
         doc.p(table(["test", "outcome", "time s", "message"], rows))
 
 
+def sec_flags(doc: Doc):
+    doc.h("XLA:CPU flags: YNNPACK library fusions off vs XLA's defaults")
+    recs = doc.records("bench_flags.jsonl", "python experiments/bench_flags.py")
+    if recs is None:
+        return
+    doc.p("`experiments/bench_flags.py`: each number a fresh process (XLA reads its flags once); `no_ynn_fusions` = "
+          "`XLA_FLAGS=--xla_cpu_experimental_ynn_fusion_type=`. Cases: `dam` fluid-only dam break (ms/step), `wedge` "
+          "coupled sliding wedge dx 0.04 with boundary particles (ms/step), `pile` 100-box pile (ms/step), `vjp` one "
+          "dam-break step's forward + VJP (ms). Ratio = no_ynn_fusions / xla_defaults within a round.")
+    by = {}
+    for r in recs:
+        by.setdefault((r["case"], r["round"]), {})[r["flags"]] = r.get("ms_per_step", r.get("ms"))
+    rows = [[case, rnd, v.get("xla_defaults"), v.get("no_ynn_fusions"),
+             (v["no_ynn_fusions"] / v["xla_defaults"]) if "xla_defaults" in v and "no_ynn_fusions" in v else "-"]
+            for (case, rnd), v in sorted(by.items())]
+    doc.p(f"Machine: {_machine_of(recs)}.")
+    doc.p(table(["case", "round", "XLA defaults", "YNN fusions off", "ratio"], rows))
+
+
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_calibration, sec_piston,
-            sec_wedge, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_hydrostatic_rest, sec_stress]
+            sec_wedge, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_hydrostatic_rest, sec_flags, sec_stress]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:
