@@ -576,3 +576,18 @@ def test_pack_explicit_sizes_and_errors():
         pack([])
     with pytest.raises(TypeError):
         pack([trimesh.creation.box()])
+
+
+def test_project_equals_matrix_products():
+    """``blocks.rotation.project`` (the narrow phase's products over 3 components as multiply-adds)
+    equals ``X @ N.T`` for a batch of points and a table of directions, and ``X @ n`` for one."""
+    import jax.numpy as jnp
+
+    from rockjax.blocks.rotation import project
+
+    rng = np.random.default_rng(3)
+    X = rng.normal(size=(5, 7, 3))
+    N = rng.normal(size=(11, 3))
+    np.testing.assert_allclose(np.asarray(project(jnp.asarray(X), jnp.asarray(N))), X @ N.T, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(np.asarray(project(jnp.asarray(X), jnp.asarray(N[0]))), X @ N[0], rtol=1e-6, atol=1e-6)
+    assert project(jnp.asarray(X), jnp.asarray(N)).shape == (5, 7, 11)
