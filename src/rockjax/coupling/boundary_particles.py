@@ -33,20 +33,14 @@ def place(P: Particles, blocks, config: Config) -> Particles:
     With ``config.n_block_particles`` only that tail of the arrays is touched (every particle a
     block carries is there); the rotation is written as multiply-adds (a batched [N, 3, 3] matvec
     went through a matmul library call on CPU)."""
-    nb = config.n_block_particles
-    if nb:
-        head, tail = (lambda a: a[:-nb]), (lambda a: a[-nb:])
-    else:
-        head, tail = (lambda a: a[:0]), (lambda a: a)
-    body, x_body = tail(P.body), tail(P.x_body)
+    start = P.x.shape[0] - config.n_block_particles if config.n_block_particles else 0
+    body, x_body = P.body[start:], P.x_body[start:]
     on = body >= 0
     b = jnp.where(on, body, 0)
-    R = quat_matrix(blocks.q)[b]  # [n, 3, 3]
-    r = jnp.stack([R[:, i, 0] * x_body[:, 0] + R[:, i, 1] * x_body[:, 1] + R[:, i, 2] * x_body[:, 2]
-                   for i in range(3)], axis=-1)
-    x = jnp.where(on[:, None], blocks.x[b] + r, tail(P.x))
-    v = jnp.where(on[:, None], blocks.v[b] + jnp.cross(blocks.omega[b], r), tail(P.v))
-    return P.replace(x=jnp.concatenate([head(P.x), x]), v=jnp.concatenate([head(P.v), v]))
+    r = jnp.sum(quat_matrix(blocks.q)[b] * x_body[:, None, :], axis=-1)  # R x_body, [n, 3]
+    x = jnp.where(on[:, None], blocks.x[b] + r, P.x[start:])
+    v = jnp.where(on[:, None], blocks.v[b] + jnp.cross(blocks.omega[b], r), P.v[start:])
+    return P.replace(x=jnp.concatenate([P.x[:start], x]), v=jnp.concatenate([P.v[:start], v]))
 
 
 def load(P: Particles, nbrs: NeighbourList, blocks, params: Params, config: Config) -> CouplingState:
