@@ -199,6 +199,40 @@ def _gather_active(points, active, k: int):
     return (jnp.take_along_axis(points, order[..., None], 1), jnp.take_along_axis(active, order, 1), over)
 
 
+def _segmented(fn, live, args, seg: int):
+    """``fn(*args)`` over the leading (pair) axis of ``args`` in segments of ``seg`` rows, skipping
+    (``lax.cond``) a segment with no ``live`` row: its outputs are zeros.
+
+    ``fn`` maps arrays [S, ...] to a pytree of arrays [S, ...]; ``live`` [P] bool; ``args`` arrays
+    [P, ...] (padded here with zeros to a whole number of segments, the outputs cut back to P).
+    ``seg <= 0`` or ``>= P``: one call, nothing skipped. Under ``jax.vmap`` the ``cond`` becomes a
+    select (every segment evaluated, as with one call)."""
+    P = live.shape[0]
+    if seg <= 0 or seg >= P:
+        return fn(*args)
+    n_seg = -(-P // seg)
+    pad = n_seg * seg - P
+
+    def split(a):
+        if pad:
+            a = jnp.concatenate([a, jnp.zeros((pad,) + a.shape[1:], a.dtype)], 0)
+        return a.reshape((n_seg, seg) + a.shape[1:])
+
+    xs = tuple(split(a) for a in args)
+    live_seg = jnp.any(split(live), 1)
+    shapes = jax.eval_shape(fn, *(x[0] for x in xs))
+
+    def skip(*_):
+        return jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
+
+    def body(_, x):
+        lv, a = x
+        return None, jax.lax.cond(lv, fn, skip, *a)
+
+    _, out = jax.lax.scan(body, None, (live_seg, xs))
+    return jax.tree_util.tree_map(lambda o: o.reshape((n_seg * seg,) + o.shape[2:])[:P], out)
+
+
 def _remap(old: ContactHistory, pairs, mask, B):
     """Carry plane / shear history from the old pair buffer to the new one (matching (i, j))."""
     big = B * B + 1
@@ -244,100 +278,115 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
                               old.slot_active & mask[:, None])
     else:
         hist = _remap(old, pairs, mask, B)
-    i, j = pairs[:, 0], pairs[:, 1]
-    fcp = jax.vmap(lambda *a: fcp_pair(*a, iterations=config.fcp_iterations))(
-        Xw[i], sh.vertex_mask[i], Nw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i],
-        Xw[j], sh.vertex_mask[j], Nw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j],
-        state.x[i], state.x[j], hist.plane, hist.plane_valid,
-    )
-    n = fcp["normal"]
-    pair_geometry = (
-        Xw[i], sh.vertex_mask[i], Nw[i], Dw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i], sh.radius[i],
-        Xw[j], sh.vertex_mask[j], Nw[j], Dw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j], sh.radius[j],
-        n, fcp["gap"],
-    )
-
-    def points_of_pairs(slack=0.0):
-        return jax.vmap(lambda *a: pair_contacts(*a, tol_rel=config.inside_tolerance,
-                                                 edge_contacts=config.edge_contacts, slack=slack))(*pair_geometry)
-
-    pts, depth, active = points_of_pairs()
-    active = active & mask[:, None]
-    depth = jnp.where(active, depth, 0.0)
-
-    # ---- contact law ----
     dyn = jnp.asarray([m == Motion.DYNAMIC for m in config.motion])
     m = block_mass(state, params)
     inv_m = jnp.where(dyn, 1.0 / m, 0.0)
-    m_red = 1.0 / jnp.maximum(inv_m[i] + inv_m[j], 1e-30)  # [P]
     kn, ks = params.normal_stiffness, params.shear_stiffness
     zeta = params.damping_ratio
-    # per-point dashpots share the pair's critical damping: n points of stiffness k and
-    # c = 2 zeta sqrt(k m_red / n) give the pair's translational mode the ratio zeta
-    n_act = jnp.maximum(jnp.sum(active.astype(f), 1), 1.0)
-    cn = 2.0 * zeta * jnp.sqrt(kn * m_red / n_act)[:, None]
-    ct = 2.0 * zeta * jnp.sqrt(ks * m_red / n_act)[:, None]
-    ri = pts - state.x[i][:, None, :]
-    rj = pts - state.x[j][:, None, :]
-    vi = state.v[i][:, None, :] + jnp.cross(state.omega[i][:, None, :], ri)
-    vj = state.v[j][:, None, :] + jnp.cross(state.omega[j][:, None, :], rj)
-    vrel = vj - vi
-    nn = n[:, None, :]
-    vn = jnp.sum(vrel * nn, -1)
-    fn = kn * depth + cn * jnp.maximum(-vn, 0.0)
-    fn = jnp.where(active, fn, 0.0)
-    vt = vrel - vn[..., None] * nn
-    u = jnp.where(hist.slot_active[..., None], hist.shear, 0.0)
-    u = u - jnp.sum(u * nn, -1, keepdims=True) * nn
-    u = u + vt * dt
-    ft = -ks * u - ct[..., None] * vt
-    cap = fn * jnp.tan(params.friction_angle) + params.cohesion
-    fmag = safe_norm(ft)
-    slip = fmag > cap
-    scale = jnp.where(slip, cap / jnp.where(slip, fmag, 1.0), 1.0)
-    ft_c = ft * scale[..., None]
-    u_new = jnp.where(slip[..., None], -ft_c / jnp.where(ks > 0, ks, 1.0), u)
-    ft_c = jnp.where(active[..., None], ft_c, 0.0)
-    u_new = jnp.where(active[..., None], u_new, 0.0)
-    F = fn[..., None] * nn + ft_c  # on j, [P,S,3]
-    Fj = jnp.sum(F, 1)
-    Tj = jnp.sum(jnp.cross(rj, F), 1)
-    Ti = -jnp.sum(jnp.cross(ri, F), 1)
     if config.joint_water:
         if gravity is None:
             raise ValueError("contact_forces: config.joint_water needs gravity=")
         gvec = jnp.asarray(gravity, f)
-        t1, t2 = jax.vmap(_tangent_basis)(n)
-        ap = config.joint_aperture
-        if ap > 0:  # the patch of the near contact, faded out over the aperture
-            wpts, _, wact = points_of_pairs(slack=0.5 * ap)
-            wact = wact & mask[:, None]
-            s_gap = jnp.clip(fcp["gap"] / ap, 0.0, 1.0)
-            fade = 1.0 - s_gap * s_gap * (3.0 - 2.0 * s_gap)
-        else:
-            wpts, wact, fade = pts, active, jnp.ones_like(fcp["gap"])
-        wpts, wact, over = _gather_active(wpts, wact, config.joint_patch_points)
+
+    def pair_forces(i, j, mask, plane, plane_valid, shear, slot_active):
+        """FCP, contact points and the contact law of the pairs (i, j) [S] (a segment of the
+        buffer): per-pair forces on j and torques on i and j, the new shear history, diagnostics."""
+        fcp = jax.vmap(lambda *a: fcp_pair(*a, iterations=config.fcp_iterations))(
+            Xw[i], sh.vertex_mask[i], Nw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i],
+            Xw[j], sh.vertex_mask[j], Nw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j],
+            state.x[i], state.x[j], plane, plane_valid,
+        )
+        n = fcp["normal"]
+        geometry = (
+            Xw[i], sh.vertex_mask[i], Nw[i], Dw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i], sh.radius[i],
+            Xw[j], sh.vertex_mask[j], Nw[j], Dw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j], sh.radius[j],
+            n, fcp["gap"],
+        )
+
+        def points_of_pairs(slack=0.0):
+            return jax.vmap(lambda *a: pair_contacts(*a, tol_rel=config.inside_tolerance,
+                                                     edge_contacts=config.edge_contacts, slack=slack))(*geometry)
+
+        pts, depth, active = points_of_pairs()
+        active = active & mask[:, None]
+        depth = jnp.where(active, depth, 0.0)
+
+        # ---- contact law ----
+        m_red = 1.0 / jnp.maximum(inv_m[i] + inv_m[j], 1e-30)  # [S]
+        # per-point dashpots share the pair's critical damping: n points of stiffness k and
+        # c = 2 zeta sqrt(k m_red / n) give the pair's translational mode the ratio zeta
+        n_act = jnp.maximum(jnp.sum(active.astype(f), 1), 1.0)
+        cn = 2.0 * zeta * jnp.sqrt(kn * m_red / n_act)[:, None]
+        ct = 2.0 * zeta * jnp.sqrt(ks * m_red / n_act)[:, None]
+        ri = pts - state.x[i][:, None, :]
+        rj = pts - state.x[j][:, None, :]
+        vi = state.v[i][:, None, :] + jnp.cross(state.omega[i][:, None, :], ri)
+        vj = state.v[j][:, None, :] + jnp.cross(state.omega[j][:, None, :], rj)
+        vrel = vj - vi
+        nn = n[:, None, :]
+        vn = jnp.sum(vrel * nn, -1)
+        fn = kn * depth + cn * jnp.maximum(-vn, 0.0)
+        fn = jnp.where(active, fn, 0.0)
+        vt = vrel - vn[..., None] * nn
+        u = jnp.where(slot_active[..., None], shear, 0.0)
+        u = u - jnp.sum(u * nn, -1, keepdims=True) * nn
+        u = u + vt * dt
+        ft = -ks * u - ct[..., None] * vt
+        cap = fn * jnp.tan(params.friction_angle) + params.cohesion
+        fmag = safe_norm(ft)
+        slip = fmag > cap
+        scale = jnp.where(slip, cap / jnp.where(slip, fmag, 1.0), 1.0)
+        ft_c = ft * scale[..., None]
+        u_new = jnp.where(slip[..., None], -ft_c / jnp.where(ks > 0, ks, 1.0), u)
+        ft_c = jnp.where(active[..., None], ft_c, 0.0)
+        u_new = jnp.where(active[..., None], u_new, 0.0)
+        F = fn[..., None] * nn + ft_c  # on j, [S,slots,3]
+        out = dict(normal=n, gap=fcp["gap"], fcp_changes=fcp["changes"], points=pts, depth=depth, active=active,
+                   normal_force=fn, tangential_force=ft_c, shear=u_new,
+                   Fj=jnp.sum(F, 1), Tj=jnp.sum(jnp.cross(rj, F), 1), Ti=-jnp.sum(jnp.cross(ri, F), 1))
+        if config.joint_water:
+            t1, t2 = jax.vmap(_tangent_basis)(n)
+            ap = config.joint_aperture
+            if ap > 0:  # the patch of the near contact, faded out over the aperture
+                wpts, _, wact = points_of_pairs(slack=0.5 * ap)
+                wact = wact & mask[:, None]
+                s_gap = jnp.clip(fcp["gap"] / ap, 0.0, 1.0)
+                fade = 1.0 - s_gap * s_gap * (3.0 - 2.0 * s_gap)
+            else:
+                wpts, wact, fade = pts, active, jnp.ones_like(fcp["gap"])
+            n_wact = jnp.sum(wact.astype(jnp.int32), 1)
+            wpts, wact, _ = _gather_active(wpts, wact, config.joint_patch_points)
+            Fw, fw, mw = jax.vmap(lambda *a: joint_water_load(
+                *a, level=params.joint_water_level, density=params.joint_water_density, gravity=gvec))(
+                    wpts, wact, n, t1, t2)
+            Fw, fw, mw = Fw * fade[:, None], fw * fade, mw * fade[:, None]
+            out["Fj"] = out["Fj"] + Fw
+            out["Tj"] = out["Tj"] + jnp.cross(mw - fw[:, None] * state.x[j], n)
+            out["Ti"] = out["Ti"] - jnp.cross(mw - fw[:, None] * state.x[i], n)
+            out.update(joint_water_force=Fw, joint_points=wpts, joint_active=wact, joint_count=n_wact)
+        return out
+
+    i, j = pairs[:, 0], pairs[:, 1]
+    per = _segmented(pair_forces, mask, (i, j, mask, hist.plane, hist.plane_valid, hist.shear, hist.slot_active),
+                     config.pair_segment)
+    n, depth, active = per["normal"], per["depth"], per["active"]
+    Fj, Tj, Ti = per["Fj"], per["Tj"], per["Ti"]
+    if config.joint_water and config.joint_patch_points < active.shape[1]:
+        over = jnp.any(per["joint_count"] > config.joint_patch_points)
         status = status | jnp.where(over, Status.JOINT_PATCH_OVERFLOW.value, 0).astype(jnp.int32)
-        Fw, fw, mw = jax.vmap(lambda *a: joint_water_load(
-            *a, level=params.joint_water_level, density=params.joint_water_density, gravity=gvec))(
-                wpts, wact, n, t1, t2)
-        Fw, fw, mw = Fw * fade[:, None], fw * fade, mw * fade[:, None]
-        Fj = Fj + Fw
-        Tj = Tj + jnp.cross(mw - fw[:, None] * state.x[j], n)
-        Ti = Ti - jnp.cross(mw - fw[:, None] * state.x[i], n)
     force = jnp.zeros((B, 3), f).at[j].add(Fj).at[i].add(-Fj)
     torque = jnp.zeros((B, 3), f).at[j].add(Tj).at[i].add(Ti)
 
     hist = ContactHistory(pairs=pairs, pair_mask=mask, plane=jax.lax.stop_gradient(n), plane_valid=mask,
-                          shear=u_new, slot_active=active)
+                          shear=per["shear"], slot_active=active)
     rmin = jnp.minimum(sh.radius[i], sh.radius[j])
     deep = jnp.any(depth > config.penetration_limit * rmin[:, None])
     status = status | jnp.where(deep, Status.BLOCK_PENETRATION.value, 0).astype(jnp.int32)
     if return_info:
-        info = dict(pairs=pairs, pair_mask=mask, normal=n, gap=fcp["gap"], fcp_changes=fcp["changes"],
-                    points=pts, depth=depth, active=active, normal_force=fn, tangential_force=ft_c,
-                    n_contacts=jnp.sum(active.astype(jnp.int32)))
+        info = dict(pairs=pairs, pair_mask=mask, n_contacts=jnp.sum(active.astype(jnp.int32)),
+                    **{k: per[k] for k in ("normal", "gap", "fcp_changes", "points", "depth", "active",
+                                           "normal_force", "tangential_force")})
         if config.joint_water:
-            info.update(joint_water_force=Fw, joint_points=wpts, joint_active=wact)
+            info.update({k: per[k] for k in ("joint_water_force", "joint_points", "joint_active")})
         return force, torque, hist, status, info
     return force, torque, hist, status

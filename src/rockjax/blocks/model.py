@@ -92,6 +92,10 @@ class BlockConfig:
         points are gathered into this many slots before the O(slots^2) hull (a box pair has up to
         16; ``contact_slots`` is 161). More set ``Status.JOINT_PATCH_OVERFLOW``, which the driver
         cures by doubling it.
+      pair_segment: the narrow phase (FCP and contact points) runs over the pair buffer in
+        segments of this many slots and skips a segment holding no overlapping pair (the broad
+        phase compacts the pairs at the front of the buffer, so a half-empty buffer costs about
+        half). 0, or >= pair_capacity: one pass over every slot.
     """
 
     n_blocks: int
@@ -116,6 +120,7 @@ class BlockConfig:
     joint_water: bool = False
     joint_aperture: float = 0.0
     joint_patch_points: int = 32
+    pair_segment: int = 64
 
     def __post_init__(self):
         if len(self.motion) != self.n_blocks:
@@ -126,6 +131,8 @@ class BlockConfig:
             raise ValueError(f"BlockConfig.joint_patch_points must be >= 3 (got {self.joint_patch_points})")
         if self.fcp_iterations < 0:
             raise ValueError("BlockConfig.fcp_iterations must be >= 0")
+        if self.pair_segment < 0:
+            raise ValueError(f"BlockConfig.pair_segment must be >= 0 (got {self.pair_segment})")
         if not (self.prescribed_ramp >= 0.0 and math.isfinite(self.prescribed_ramp)):
             raise ValueError(f"BlockConfig.prescribed_ramp must be a finite time >= 0 s (got {self.prescribed_ramp})")
 
@@ -437,6 +444,7 @@ def make_blocks(
     joint_water_density: float = 1000.0,
     joint_aperture: float = 0.0,
     joint_patch_points: int = 32,
+    pair_segment: int = 64,
 ):
     """Build ``(BlockConfig, BlockParams, BlockState)`` from convex polyhedra, validating every input.
 
@@ -470,7 +478,7 @@ def make_blocks(
       joint_water: block faces pressed together carry the hydrostatic pressure of a still water
         at ``joint_water_level`` (m, height along -gravity) of ``joint_water_density`` (kg/m^3,
         > 0); see ``blocks.joint_water``.  joint_aperture: m (>= 0), see :class:`BlockConfig`;
-        the broad-phase margin is raised to it.  joint_patch_points: see :class:`BlockConfig`.
+        the broad-phase margin is raised to it.  joint_patch_points, pair_segment: see :class:`BlockConfig`.
 
     Returns:
       ``(config, params, state)``; state arrays in float32 (float64 under ``jax_enable_x64``).
@@ -601,6 +609,7 @@ def make_blocks(
         joint_water=bool(joint_water),
         joint_aperture=float(jw_ap),
         joint_patch_points=int(joint_patch_points),
+        pair_segment=int(pair_segment),
     )
 
     f = float_dtype()

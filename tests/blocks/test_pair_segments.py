@@ -1,0 +1,112 @@
+"""The narrow phase in segments (``BlockConfig.pair_segment``) gives what one pass gives.
+
+``contact_forces`` evaluates FCP, the contact points and the contact law over the pair buffer in
+segments of ``pair_segment`` slots and skips (``lax.cond``) a segment holding no overlapping pair.
+A skipped segment must change nothing: the forces, the contact history, a rollout, its gradient
+and its ``vmap`` are compared with the one-pass evaluation (``pair_segment=0``) in float64, on a
+scene whose buffer has both empty and occupied segments (two stacks of boxes far apart, with joint
+water so that its patch path is segmented too).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import rockjax.blocks as rb
+from rockjax.blocks import Motion, box, make_blocks, slab
+
+SEG = 4
+GRAV = (0.0, 0.0, -9.81)  # m/s^2; an array is made under float64 (a float32 g sits the stacks on a stick/slip knife edge)
+
+
+def _scene():
+    polys, pos = [slab(3.0, 1.0, 0.2)], [[0.0, 0.0, -0.1]]
+    for x0 in (-1.0, 1.0):  # two stacks of 3 boxes, 2 m apart: most pairs never overlap
+        for k in range(3):
+            polys.append(box(0.2, 0.2, 0.1))
+            pos.append([x0 + 0.003 * k, 0.0, 0.05 + 0.1 * k - 1e-4 * (k + 1)])
+    vel = [[0.0, 0.0, 0.0]] + [[0.1 * (k % 3), 0.0, 0.0] for k in range(6)]  # the boxes slide on each other
+    cfg, par, st = make_blocks(polys, positions=np.asarray(pos), motion=[Motion.FIXED] + [Motion.DYNAMIC] * 6,
+                               velocities=np.asarray(vel),
+                               normal_stiffness=1e7, joint_water=True, joint_water_level=0.5,
+                               joint_aperture=2e-3, pair_segment=SEG)
+    return cfg, par, st
+
+
+@pytest.fixture(scope="module")
+def scene(x64):
+    return _scene()
+
+
+def _rollout(cfg, n_steps, dt):
+    def run(par, st):
+        def body(s, _):
+            s, stat = rb.advance_blocks(s, par, cfg, dt=dt, t=0.0, gravity=jnp.asarray(GRAV))
+            return s, stat
+
+        s, stat = jax.lax.scan(body, st, None, length=n_steps)
+        return s, jnp.bitwise_or.reduce(stat)
+
+    return run
+
+
+def test_segments_skip_and_match_one_pass(scene):
+    cfg, par, st = scene
+    one = dataclasses.replace(cfg, pair_segment=0)
+    g = jnp.asarray(GRAV)
+    seg_out = jax.jit(lambda s: rb.contact_forces(s, par, cfg, dt=1e-4, gravity=g, return_info=True))(st)
+    one_out = jax.jit(lambda s: rb.contact_forces(s, par, one, dt=1e-4, gravity=g, return_info=True))(st)
+    live = np.asarray(seg_out[4]["pair_mask"])
+    P = live.size
+    per_seg = np.pad(live, (0, -P % SEG)).reshape(-1, SEG).any(1)
+    assert per_seg.any() and not per_seg.all(), per_seg  # the scene really has skipped segments
+    assert int(seg_out[4]["n_contacts"]) > 0
+    for a, b in zip(seg_out[:2], one_out[:2]):  # forces, torques
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-12, atol=1e-12)
+    h_seg, h_one = seg_out[2], one_out[2]  # the history of the live pairs (a skipped pair's is unused)
+    assert np.array_equal(np.asarray(h_seg.pair_mask), live) and np.array_equal(np.asarray(h_one.pair_mask), live)
+    assert np.array_equal(np.asarray(h_seg.slot_active), np.asarray(h_one.slot_active))
+    np.testing.assert_allclose(np.asarray(h_seg.plane)[live], np.asarray(h_one.plane)[live], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(h_seg.shear), np.asarray(h_one.shear), rtol=0, atol=1e-12)
+    assert int(seg_out[3]) == int(one_out[3])
+    for k in ("depth", "active", "normal_force", "tangential_force", "joint_water_force"):
+        np.testing.assert_allclose(np.asarray(seg_out[4][k]), np.asarray(one_out[4][k]), rtol=1e-12, atol=1e-12)
+
+
+def test_segmented_rollout_grad_and_vmap(scene):
+    cfg, par, st = scene
+    one = dataclasses.replace(cfg, pair_segment=0)
+    dt = 0.5 * float(rb.stable_dt(cfg, par, st))
+    n = 60
+
+    def loss(c):
+        run = _rollout(c, n, dt)
+
+        def f(density, friction):
+            p = dataclasses.replace(par, density=density, friction_angle=friction)
+            s, _ = run(p, st)
+            return jnp.sum(s.x[1:, 0]) + jnp.sum(s.x[1:, 2])
+
+        return f
+
+    args = (par.density, par.friction_angle)
+    s_seg, stat_seg = jax.jit(_rollout(cfg, n, dt))(par, st)
+    s_one, stat_one = jax.jit(_rollout(one, n, dt))(par, st)
+    assert int(stat_seg) == int(stat_one) == 0
+    np.testing.assert_allclose(np.asarray(s_seg.x), np.asarray(s_one.x), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(s_seg.shear), np.asarray(s_one.shear), rtol=0, atol=1e-12)
+    g_seg = jax.jit(jax.grad(loss(cfg), argnums=(0, 1)))(*args)
+    g_one = jax.jit(jax.grad(loss(one), argnums=(0, 1)))(*args)
+    assert float(jnp.abs(g_one[1])) > 0  # friction matters over this horizon
+    for a, b in zip(jax.tree.leaves(g_seg), jax.tree.leaves(g_one)):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-10, atol=1e-14)
+    # a batch of two friction angles through the segmented path (the cond becomes a select)
+    fr = jnp.stack([par.friction_angle, 0.8 * par.friction_angle])
+    batched = jax.jit(jax.vmap(loss(cfg), in_axes=(None, 0)))(par.density, fr)
+    each = [float(jax.jit(loss(one))(par.density, f)) for f in fr]
+    np.testing.assert_allclose(np.asarray(batched), each, rtol=1e-12)
