@@ -454,13 +454,16 @@ def sec_piston(doc: Doc):
         return
     doc.p("`experiments/piston_transfer.py`: H/S at a gauge 4 depths from the paddle, fitted over the whole periods "
           "from the front's arrival + 2 periods until the beach reflection could return (`periods`); "
-          "`wall visc.` = `FluidParams.wall_viscosity` (0: free-slip walls, as linear theory is inviscid).")
+          "`wall visc.` = `FluidParams.wall_viscosity` (0: free-slip walls, as linear theory is inviscid). "
+          "Rows at two spacings with everything else equal are a resolution study.")
     rows = [[r.get("coupling"), r.get("dx"), r.get("h_factor", "–"), r.get("wall_viscosity", "–"), r.get("kh"),
              r.get("depth"), r.get("stroke"), r.get("gauge_x"), r.get("n_fluid"), r.get("n_periods"), r.get("H_over_S"),
-             r.get("theory_H_over_S"), r.get("rel_error"), r.get("wall_s"), r.get("load")]
+             r.get("H2_over_S", "–"), r.get("theory_H_over_S"), r.get("rel_error"), r.get("wall_s"), r.get("load"),
+             r.get("date", "–")]
             for r in recs]
     doc.p(table(["coupling", "dx [m]", "h / dx", "wall visc.", "kh", "depth [m]", "stroke [m]", "gauge x [m]",
-                 "n_fluid", "periods", "H/S", "theory H/S", "rel. error", "wall s", "load"], rows))
+                 "n_fluid", "periods", "H/S", "2nd harm. H2/S", "theory H/S", "rel. error", "wall s", "load", "date"],
+                rows))
     recs = doc.records("piston_decay.jsonl", "python experiments/piston_decay.py")
     if recs is None:
         return
