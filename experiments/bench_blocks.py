@@ -3,6 +3,7 @@
 MuJoCo's CPU simulator as a reference ratio.  Prints JSON lines.
 
     .venv/bin/python experiments/bench_blocks.py [--sizes 10 100 1000] [--steps 200] [--out FILE.jsonl]
+    .venv/bin/python experiments/bench_blocks.py --sizes 100 --ab-segments 0 64   # segmented narrow phase vs one pass
 
 Pile: N boxes (0.18-0.2 m, 2650 kg/m^3) stacked ~4 high in columns in contact on a fixed floor
 slab, with 2 mm lateral jitter (no initial overlap); k_n = 1e7 N/m, dt = stable_dt.  Timed
@@ -48,12 +49,12 @@ def pile(n, seed=0):
     return [slab(L, L, 0.3)] + polys, np.array([[cxy, cxy, -0.15]] + pos)
 
 
-def run_blocks(n, steps, chunk=50):
+def run_blocks(n, steps, chunk=50, pair_segment=64):
     polys, pos = pile(n)
     motion = [Motion.FIXED] + [Motion.DYNAMIC] * n
     bp = Broadphase.ALL_PAIRS if n <= 32 else Broadphase.GRID
     cfg, par, st = make_blocks(polys, positions=pos, motion=motion, normal_stiffness=1e7, shear_stiffness=4e6,
-                               broadphase=bp, pair_capacity=None)
+                               broadphase=bp, pair_capacity=None, pair_segment=pair_segment)
     dt = rb.stable_dt(cfg, par, st)
     g = jnp.asarray([0.0, 0.0, -9.81], st.x.dtype)
 
@@ -83,6 +84,7 @@ def run_blocks(n, steps, chunk=50):
     wall = time.perf_counter() - tw
     nsteps = nch * chunk
     return dict(bench="blocks_pile", n_blocks=n, broadphase=bp.value, pair_capacity=cfg.pair_capacity,
+                pair_segment=cfg.pair_segment,
                 contact_slots=cfg.contact_slots, fcp_iterations=cfg.fcp_iterations, dt=dt, steps=nsteps,
                 wall_s=round(wall, 3), compile_plus_first_chunk_s=round(compile_s, 2),
                 block_steps_per_s=n * nsteps / wall, contact_evals_per_s=evals / wall,
@@ -156,6 +158,10 @@ def main():
     ap.add_argument("--sizes", type=int, nargs="+", default=[10, 100, 1000])
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--no-fcp", action="store_true")
+    ap.add_argument("--ab-segments", type=int, nargs="+", default=None,
+                    help="instead: time each pile with these BlockConfig.pair_segment values (0 = one pass over "
+                         "the pair buffer), alternated --repeats times in this process, and print the ratios")
+    ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--out", default=None, help="also append the records (with date, command, load) to this file")
     a = ap.parse_args()
     stamp = dict(date=time.strftime("%Y-%m-%d"), cmd="experiments/bench_blocks.py " + " ".join(sys.argv[1:]))
@@ -163,6 +169,20 @@ def main():
     def out(rec):
         emit(dict(rec, **stamp, load_avg_1m_at_save=os.getloadavg()[0]), a.out)
 
+    if a.ab_segments:
+        for n in a.sizes:
+            walls = {sg: [] for sg in a.ab_segments}
+            for _ in range(a.repeats):
+                for sg in a.ab_segments:
+                    r = run_blocks(n, a.steps if n < 1000 else max(50, a.steps // 4), pair_segment=sg)
+                    walls[sg].append(r["wall_s"])
+                    out(r)
+            best = {sg: min(w) for sg, w in walls.items()}
+            ref = a.ab_segments[0]
+            out(dict(bench="blocks_pair_segment_ab", n_blocks=n, pair_capacity=r["pair_capacity"],
+                     mean_pairs=r["mean_pairs"], best_wall_s=best,
+                     speedup_over_first={sg: best[ref] / b for sg, b in best.items()}))
+        return
     for n in a.sizes:
         r = run_blocks(n, a.steps if n < 1000 else max(50, a.steps // 4))
         out(r)

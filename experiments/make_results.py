@@ -365,6 +365,17 @@ def sec_blocks(doc: Doc):
                      m.get("block_steps_per_s"), m.get("ratio_rockjax_over_mujoco") or m.get("skipped")])
     doc.p(table(["blocks", "broad phase", "steps", "dt [s]", "block-steps/s", "contact evals/s", "contact points",
                  "status", "MuJoCo block-steps/s", "rockjax / MuJoCo"], rows))
+    ab = doc.records("bench_blocks_segments.jsonl",
+                     "python experiments/bench_blocks.py --sizes 100 1000 --ab-segments 0 64 --out ...")
+    ab = [r for r in ab or [] if r.get("bench") == "blocks_pair_segment_ab"]
+    if ab:
+        doc.p("The narrow phase over the pair buffer in segments (`BlockConfig.pair_segment`, 64 slots; a segment "
+              "holding no overlapping pair is skipped) against one pass over every slot (`pair_segment = 0`): "
+              "best of the alternated runs in one process.")
+        doc.p(table(["blocks", "pair slots", "mean overlapping pairs", "one pass s", "segments of 64 s", "speed-up",
+                     "date"], [[r["n_blocks"], r["pair_capacity"], r["mean_pairs"], r["best_wall_s"].get("0"),
+                                r["best_wall_s"].get("64"), r["speedup_over_first"].get("64"), r.get("date")]
+                               for r in ab]))
     fcp = [r for r in recs if r.get("bench") == "fcp_iterations"]
     if fcp:
         doc.p(table(["FCP iterations", "cases", "fraction exact", "max depth err / L", "mean depth err / L"],
