@@ -1,6 +1,6 @@
 """Piston wave maker: wave height against distance from the paddle (numerical damping check).
 
-Runs ``scenes.piston_wavemaker`` (kh = 1, depth 0.3 m, stroke 0.04 m, 4 m flat, periodic 2D
+Runs ``scenes.piston_wavemaker`` (kh = 1, depth 0.3 m, stroke 0.04 m or ``--stroke``, 4 m flat, periodic 2D
 slab, boundary-particle paddle) with gauges at 1, 2, 3, 4 and 6 depths, and fits the wave
 height H at each gauge (``rockjax.validation.wave_height``: first and second harmonic of the
 paddle frequency, mean and drift) over the whole periods from the front's arrival (x / c_g) plus
@@ -32,14 +32,14 @@ GAUGES = [0.3, 0.6, 0.9, 1.2, 1.8]
 
 
 def simulate(dx: float, coupling: str, t_end: float, npz: str, *, alpha=None, wall_viscosity=None,
-             h_factor: float = 1.3, diffusion: str = "fourtakas") -> None:
+             h_factor: float = 1.5, diffusion: str = "fourtakas", stroke: float = STROKE) -> None:
     import jax.numpy as jnp
 
     import rockjax as rj
     from rockjax.observables import scene_observer
 
     T = linear_wave(KH, DEPTH)["period"]
-    scene = rj.scenes.piston_wavemaker(dx=dx, stroke=STROKE, period=T, water_depth=DEPTH, flat_length=FLAT,
+    scene = rj.scenes.piston_wavemaker(dx=dx, stroke=stroke, period=T, water_depth=DEPTH, flat_length=FLAT,
                                        beach_slope=0.3, flume_width=(7 if h_factor <= 1.3 else 8) * dx,
                                        coupling=rj.Coupling(coupling),
                                        gauge_x=GAUGES, h_factor=h_factor)
@@ -54,7 +54,7 @@ def simulate(dx: float, coupling: str, t_end: float, npz: str, *, alpha=None, wa
     np.savez(npz, t=res.times, eta=res.observed["gauges"], T=T, gx=GAUGES, theory=piston_transfer(KH),
              wall=time.perf_counter() - t0, n=scene.config.n_fluid, dx=dx, coupling=coupling,
              load=os.getloadavg()[0], alpha=float(fl.alpha), wall_viscosity=float(fl.wall_viscosity),
-             h_factor=h_factor, diffusion=diffusion)
+             h_factor=h_factor, diffusion=diffusion, stroke=stroke)
 
 
 def analyse(npz: str, delays=(0, 1, 2)) -> dict:
@@ -67,6 +67,7 @@ def analyse(npz: str, delays=(0, 1, 2)) -> dict:
     t, eta, T = d["t"], d["eta"], float(d["T"])
     wave = linear_wave(KH, DEPTH)
     theory = float(d["theory"])
+    stroke = float(d["stroke"]) if "stroke" in d else STROKE
     rows = []
     for j, x in enumerate(d["gx"]):
         t_stop = min((2 * FLAT - x) / wave["cg"], float(t[-1]))
@@ -75,8 +76,8 @@ def analyse(npz: str, delays=(0, 1, 2)) -> dict:
             t_start = x / wave["cg"] + delay * T
             H, H2, n = wave_height(t, eta[:, j], period=T, t_start=t_start, t_stop=t_stop)
             if n:
-                fits.append(dict(delay_periods=delay, t_start=round(t_start, 3), periods=n, H_over_S=H / STROKE,
-                                 H2_over_S=H2 / STROKE, rel_error=(H / STROKE - theory) / theory))
+                fits.append(dict(delay_periods=delay, t_start=round(t_start, 3), periods=n, H_over_S=H / stroke,
+                                 H2_over_S=H2 / stroke, rel_error=(H / stroke - theory) / theory))
         phase = wave_phase(t, eta[:, j], period=T, t_start=x / wave["cg"] + 2 * T, t_stop=t_stop)
         rows.append(dict(x=float(x), x_over_depth=float(x) / DEPTH, t_stop=round(t_stop, 3), fits=fits,
                          phase=phase))
@@ -87,7 +88,7 @@ def analyse(npz: str, delays=(0, 1, 2)) -> dict:
     if len(far) >= 2:
         xs = np.array([a for a, _ in far])
         k_fit = float(np.polyfit(xs, np.unwrap([b for _, b in far]), 1)[0])
-    return dict(kh=KH, depth=DEPTH, stroke=STROKE, period=T, dx=float(d["dx"]) if "dx" in d else None,
+    return dict(kh=KH, depth=DEPTH, stroke=stroke, period=T, dx=float(d["dx"]) if "dx" in d else None,
                 coupling=str(d["coupling"]) if "coupling" in d else None, n_fluid=int(d["n"]),
                 alpha=float(d["alpha"]) if "alpha" in d else 0.02,
                 wall_viscosity=float(d["wall_viscosity"]) if "wall_viscosity" in d else 1.0,
@@ -105,7 +106,8 @@ def main():
     ap.add_argument("--alpha", type=float, default=None, help="artificial viscosity (default: the scene's)")
     ap.add_argument("--wall-viscosity", type=float, default=None,
                     help="viscous factor towards walls/blocks (default: the scene's; 0 = free slip)")
-    ap.add_argument("--h-factor", type=float, default=1.3, help="smoothing length / dx")
+    ap.add_argument("--h-factor", type=float, default=1.5, help="smoothing length / dx (the scene's default)")
+    ap.add_argument("--stroke", type=float, default=STROKE, help="paddle stroke m")
     ap.add_argument("--diffusion", default="fourtakas", choices=["fourtakas", "antuono", "molteni"])
     ap.add_argument("--out", default=None, help="JSON-lines file the record is appended to "
                                                 "(default results/piston_decay.jsonl)")
@@ -115,7 +117,7 @@ def main():
     npz = a.from_npz
     if npz is None:
         simulate(a.dx, a.coupling, a.t_end, a.npz, alpha=a.alpha, wall_viscosity=a.wall_viscosity,
-                 h_factor=a.h_factor, diffusion=a.diffusion)
+                 h_factor=a.h_factor, diffusion=a.diffusion, stroke=a.stroke)
         npz = a.npz
     rec = analyse(npz)
     print(json.dumps(rec))

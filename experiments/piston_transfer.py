@@ -15,12 +15,14 @@ import json
 import os
 import time
 
+import numpy as np
 
 from rockjax.validation import linear_wave, piston_transfer, wave_height
 
 
 def run(*, dx: float, kh: float, depth: float, stroke: float, coupling: str, flat_length: float,
-        gauge_depths: float = 4.0, t_end: float | None = None, wall_viscosity: float = 0.0) -> dict:
+        gauge_depths: float = 4.0, t_end: float | None = None, wall_viscosity: float = 0.0,
+        npz: str | None = None, still_npz: str | None = None) -> dict:
     import rockjax as rj
     from rockjax.observables import scene_observer
 
@@ -42,14 +44,26 @@ def run(*, dx: float, kh: float, depth: float, stroke: float, coupling: str, fla
     t0 = time.perf_counter()
     res = rj.simulate(scene, t_end=t_end, frame_dt=T / 24, observe=scene_observer(scene.meta), progress=False)
     wall = time.perf_counter() - t0
-    eta = res.observed["gauges"][:, 0]
-    H, H2, n = wave_height(res.times, eta, period=T, t_start=t_arrive + 2 * T, t_stop=min(t_end, t_reflect))
+    eta = np.asarray(res.observed["gauges"][:, 0])
+    if npz:
+        np.savez(npz, t=np.asarray(res.times), eta=eta, stroke=stroke, dx=dx)
+    window = dict(period=T, t_start=t_arrive + 2 * T, t_stop=min(t_end, t_reflect))
+    H, H2, n = wave_height(res.times, eta, **window)
+    extra = {}
+    if still_npz:  # the same flume with the paddle (nearly) still: its start transient removed from the record
+        st = np.load(still_npz)
+        if st["t"].shape != np.shape(res.times) or not np.allclose(st["t"], res.times):
+            raise ValueError(f"{still_npz}: its frame times differ from this run's (same flume, dx and t_end needed)")
+        Hs, _, _ = wave_height(res.times, st["eta"], **window)
+        Hr, H2r, _ = wave_height(res.times, eta - st["eta"], **window)
+        extra = dict(still_H_over_S=Hs / stroke, H_over_S_minus_still=Hr / stroke,
+                     rel_error_minus_still=(Hr / stroke - piston_transfer(kh)) / piston_transfer(kh))
     theory = piston_transfer(kh)
     return dict(kh=kh, depth=depth, period=T, stroke=stroke, dx=dx, coupling=coupling, gauge_x=x_g,
                 wall_viscosity=wall_viscosity, h_factor=float(scene.params.fluid.h) / dx,
                 n_fluid=scene.config.n_fluid, t_end=t_end, window=[t_arrive + 2 * T, min(t_end, t_reflect)], n_periods=n,
                 H=H, H_over_S=H / stroke, H2_over_S=H2 / stroke, theory_H_over_S=theory, rel_error=(H / stroke - theory) / theory,
-                wall_s=wall, load=os.getloadavg()[0])
+                wall_s=wall, load=os.getloadavg()[0], **extra)
 
 
 def main():
@@ -64,9 +78,14 @@ def main():
     ap.add_argument("--wall-viscosity", type=float, default=0.0,
                     help="FluidParams.wall_viscosity (default 0: free-slip walls, as linear theory is inviscid; "
                          "the scene's default 1 damps the train along the flume)")
+    ap.add_argument("--npz", default=None, help="also save the gauge record (t, eta) here")
+    ap.add_argument("--still-npz", default=None,
+                    help="the --npz of the same flume run with a negligible stroke (e.g. 1e-9): also fit the "
+                         "record minus that one (removes the start transient of the water on the beach)")
     a = ap.parse_args()
     print(json.dumps(run(dx=a.dx, kh=a.kh, depth=a.depth, stroke=a.stroke, coupling=a.coupling,
-                         flat_length=a.flat_length, wall_viscosity=a.wall_viscosity)), flush=True)
+                         flat_length=a.flat_length, wall_viscosity=a.wall_viscosity, npz=a.npz,
+                         still_npz=a.still_npz)), flush=True)
 
 
 if __name__ == "__main__":
