@@ -22,7 +22,8 @@ from rockjax.validation import linear_wave, piston_transfer, wave_height
 
 def run(*, dx: float, kh: float, depth: float, stroke: float, coupling: str, flat_length: float,
         gauge_depths: float = 4.0, t_end: float | None = None, wall_viscosity: float = 0.0,
-        npz: str | None = None, still_npz: str | None = None) -> dict:
+        npz: str | None = None, still_npz: str | None = None, settle: float = 0.0,
+        settle_alpha: float = 1.0) -> dict:
     import rockjax as rj
     from rockjax.observables import scene_observer
 
@@ -42,6 +43,8 @@ def run(*, dx: float, kh: float, depth: float, stroke: float, coupling: str, fla
         raise ValueError(f"flat_length {flat_length} m leaves less than one developed period at the gauge "
                          f"(x = {x_g} m, c_g = {cg:.3f} m/s, T = {T:.3f} s): use flat_length >= {need:.2f} m")
     t0 = time.perf_counter()
+    if settle > 0:  # relax the water first (paddle still, strong artificial viscosity), then start at t = 0
+        scene = rj.scenes.settle(scene, t_settle=settle, alpha=settle_alpha)
     res = rj.simulate(scene, t_end=t_end, frame_dt=T / 24, observe=scene_observer(scene.meta), progress=False)
     wall = time.perf_counter() - t0
     eta = np.asarray(res.observed["gauges"][:, 0])
@@ -63,6 +66,7 @@ def run(*, dx: float, kh: float, depth: float, stroke: float, coupling: str, fla
                 wall_viscosity=wall_viscosity, h_factor=float(scene.params.fluid.h) / dx,
                 n_fluid=scene.config.n_fluid, t_end=t_end, window=[t_arrive + 2 * T, min(t_end, t_reflect)], n_periods=n,
                 H=H, H_over_S=H / stroke, H2_over_S=H2 / stroke, theory_H_over_S=theory, rel_error=(H / stroke - theory) / theory,
+                settle_s=settle, settle_alpha=settle_alpha if settle > 0 else None,
                 wall_s=wall, load=os.getloadavg()[0], **extra)
 
 
@@ -82,8 +86,12 @@ def main():
     ap.add_argument("--still-npz", default=None,
                     help="the --npz of the same flume run with a negligible stroke (e.g. 1e-9): also fit the "
                          "record minus that one (removes the start transient of the water on the beach)")
+    ap.add_argument("--settle", type=float, default=0.0,
+                    help="s: first relax the water with the paddle still and artificial viscosity --settle-alpha, "
+                         "then start the paddle from that state at t = 0")
+    ap.add_argument("--settle-alpha", type=float, default=1.0)
     a = ap.parse_args()
-    print(json.dumps(run(dx=a.dx, kh=a.kh, depth=a.depth, stroke=a.stroke, coupling=a.coupling,
+    print(json.dumps(run(settle=a.settle, settle_alpha=a.settle_alpha, dx=a.dx, kh=a.kh, depth=a.depth, stroke=a.stroke, coupling=a.coupling,
                          flat_length=a.flat_length, wall_viscosity=a.wall_viscosity, npz=a.npz,
                          still_npz=a.still_npz)), flush=True)
 

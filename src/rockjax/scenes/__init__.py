@@ -1,11 +1,13 @@
 """Built-in scenes. Each builder takes keyword-only arguments in SI units (resolution ``dx``)
 and returns a ``Scene``; ``BUILTIN`` maps CLI names to builders; ``load_scene`` / ``load_file``
-read a scene described in a TOML file (``rockjax.scenes.scenefile``)."""
+read a scene described in a TOML file (``rockjax.scenes.scenefile``); ``settle`` relaxes a scene's
+water before its run."""
 
 from .base import Scene, check_params, stable_dt
 from .coupled import block_drop, block_on_incline, floating_box, piston_wavemaker, sliding_wedge
 from .fluid import dam_break, hydrostatic_tank
 from .scenefile import load as load_file, load_scene
+from .settle import settle
 
 BUILTIN = {
     "sliding_wedge": sliding_wedge,
@@ -18,4 +20,4 @@ BUILTIN = {
 }
 
 __all__ = ["Scene", "BUILTIN", "dam_break", "hydrostatic_tank", "sliding_wedge", "piston_wavemaker",
-           "floating_box", "block_drop", "block_on_incline", "check_params", "stable_dt", "load_scene", "load_file"]
+           "floating_box", "block_drop", "block_on_incline", "check_params", "stable_dt", "load_scene", "load_file", "settle"]
