@@ -75,6 +75,14 @@ def _cmd_run(args) -> int:
     if args.dry_run:
         print(json.dumps(dict(info, t_end_s=t_end, frame_dt_s=frame_dt, out=out)))
         return 0
+    if args.settle:
+        from .scenes import settle
+
+        try:
+            scene = settle(scene, t_settle=args.settle, progress=not args.quiet and None)
+        except ValueError as e:
+            print(f"rockjax: {e}", file=sys.stderr)
+            return 2
     try:
         result = simulate(scene, t_end=t_end, out=out, frame_dt=frame_dt, rebuild_period=args.rebuild_period,
                           progress=not args.quiet and None, keep_frames=False, observe=scene_observer(scene.meta))
@@ -131,6 +139,9 @@ def _add_run(sub) -> None:
     p.add_argument("--rebuild-period", type=int, default=None,
                    help="rebuild the neighbour list at least every this many steps (default 32; it is also "
                         "rebuilt whenever a particle would move more than half the skin)")
+    p.add_argument("--settle", type=float, default=0.0, metavar="SECONDS",
+                   help="first relax the water this long with the blocks held and strong artificial viscosity, "
+                        "then run from it at t = 0 (scenes.settle; not for scenes with DYNAMIC blocks)")
     p.set_defaults(func=_cmd_run)
 
 

@@ -121,3 +121,12 @@ def test_run_with_rebuild_period(capsys):
     assert main(["run", "hydrostatic_tank", "--dx", "0.05", "--t-end", "0.005", "--rebuild-period", "0",
                  "--quiet"]) == 1
     assert "rebuild_period" in capsys.readouterr().err
+
+
+def test_run_with_settle(capsys):
+    # the water settles first (a tank: no blocks), then runs; a scene with a DYNAMIC block is refused
+    assert main(["run", "hydrostatic_tank", "--dx", "0.05", "--t-end", "0.005", "--settle", "0.005",
+                 "--quiet"]) == 0
+    assert _json(capsys.readouterr().out)["steps"] >= 1
+    assert main(["run", "block_drop", "--dx", "0.05", "--t-end", "0.005", "--settle", "0.01", "--quiet"]) == 2
+    assert "DYNAMIC" in capsys.readouterr().err
