@@ -468,16 +468,19 @@ def sec_piston(doc: Doc):
           "`wall visc.` = `FluidParams.wall_viscosity` (0: free-slip walls, as linear theory is inviscid). "
           "Rows at two spacings with everything else equal are a resolution study.")
     rows = [[r.get("coupling"), r.get("dx"), r.get("h_factor", "–"), r.get("wall_viscosity", "–"), r.get("kh"),
-             r.get("depth"), r.get("stroke"), r.get("gauge_x"), r.get("n_fluid"), r.get("n_periods"), r.get("H_over_S"),
+             r.get("depth"), r.get("stroke"), r.get("gauge_x"), r.get("n_fluid"), r.get("settle_s") or "–",
+             r.get("n_periods"), r.get("H_over_S"),
              r.get("H2_over_S", "–"), r.get("theory_H_over_S"), r.get("rel_error"),
              r.get("still_H_over_S", "–"), r.get("H_over_S_minus_still", "–"), r.get("rel_error_minus_still", "–"),
              r.get("wall_s"), r.get("load"), r.get("date", "–")]
             for r in recs]
     doc.p("`still` columns (`--still-npz`): the same flume run with the paddle still (stroke 1e-9 m); its gauge "
           "record fitted at the wave frequency (as a fraction of this row's stroke), and this row's record minus "
-          "it fitted again (removes the start transient of the water on the beach).")
+          "it fitted again (removes the start transient of the water on the beach). `settle s` (`--settle`): "
+          "the water first relaxed that long with the paddle still and artificial viscosity 1 "
+          "(`rockjax.scenes.settle`), the still run then settled the same way.")
     doc.p(table(["coupling", "dx [m]", "h / dx", "wall visc.", "kh", "depth [m]", "stroke [m]", "gauge x [m]",
-                 "n_fluid", "periods", "H/S", "2nd harm. H2/S", "theory H/S", "rel. error", "still H/S",
+                 "n_fluid", "settle s", "periods", "H/S", "2nd harm. H2/S", "theory H/S", "rel. error", "still H/S",
                  "H/S minus still", "rel. error minus still", "wall s", "load", "date"], rows))
     recs = doc.records("piston_decay.jsonl", "python experiments/piston_decay.py")
     if recs is None:
