@@ -1,7 +1,10 @@
 """Contact points, the contact law and the per-step contact forces of the blocks.
 
 Owns :func:`contact_forces` (broad phase -> history remap -> FCP -> contact points -> law ->
-forces and torques on each block) and :class:`ContactHistory`.
+forces and torques on each block) and :class:`ContactHistory`. The per-pair part (FCP, points,
+law, joint water) runs over the pair buffer in segments of ``BlockConfig.pair_segment`` slots and
+skips a segment holding no overlapping pair (``_segmented``); the pairs' loads are then summed
+onto the blocks.
 
 Contact points of a pair (i, j) with common-plane normal n (from i to j) -- padded, masked, never
 pruned; each kind has its own fixed slot so the shear history follows the feature:
