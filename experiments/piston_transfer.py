@@ -52,19 +52,19 @@ def run(*, dx: float, kh: float, depth: float, stroke: float, coupling: str, fla
         np.savez(npz, t=np.asarray(res.times), eta=eta, stroke=stroke, dx=dx)
     window = dict(period=T, t_start=t_arrive + 2 * T, t_stop=min(t_end, t_reflect))
     H, H2, n = wave_height(res.times, eta, **window)
+    theory = piston_transfer(kh)
     extra = {}
     if still_npz:  # the same flume with the paddle (nearly) still: its start transient removed from the record
         st = np.load(still_npz)
         if st["t"].shape != np.shape(res.times) or not np.allclose(st["t"], res.times):
             raise ValueError(f"{still_npz}: its frame times differ from this run's (same flume, dx and t_end needed)")
         Hs, _, _ = wave_height(res.times, st["eta"], **window)
-        Hr, H2r, _ = wave_height(res.times, eta - st["eta"], **window)
+        Hr, _, _ = wave_height(res.times, eta - st["eta"], **window)
         extra = dict(still_H_over_S=Hs / stroke, H_over_S_minus_still=Hr / stroke,
-                     rel_error_minus_still=(Hr / stroke - piston_transfer(kh)) / piston_transfer(kh))
-    theory = piston_transfer(kh)
+                     rel_error_minus_still=(Hr / stroke - theory) / theory)
     return dict(kh=kh, depth=depth, period=T, stroke=stroke, dx=dx, coupling=coupling, gauge_x=x_g,
                 wall_viscosity=wall_viscosity, h_factor=float(scene.params.fluid.h) / dx,
-                n_fluid=scene.config.n_fluid, t_end=t_end, window=[t_arrive + 2 * T, min(t_end, t_reflect)], n_periods=n,
+                n_fluid=scene.config.n_fluid, t_end=t_end, window=[window["t_start"], window["t_stop"]], n_periods=n,
                 H=H, H_over_S=H / stroke, H2_over_S=H2 / stroke, theory_H_over_S=theory, rel_error=(H / stroke - theory) / theory,
                 settle_s=settle, settle_alpha=settle_alpha if settle > 0 else None,
                 wall_s=wall, load=os.getloadavg()[0], **extra)
@@ -91,9 +91,9 @@ def main():
                          "then start the paddle from that state at t = 0")
     ap.add_argument("--settle-alpha", type=float, default=1.0)
     a = ap.parse_args()
-    print(json.dumps(run(settle=a.settle, settle_alpha=a.settle_alpha, dx=a.dx, kh=a.kh, depth=a.depth, stroke=a.stroke, coupling=a.coupling,
+    print(json.dumps(run(dx=a.dx, kh=a.kh, depth=a.depth, stroke=a.stroke, coupling=a.coupling,
                          flat_length=a.flat_length, wall_viscosity=a.wall_viscosity, npz=a.npz,
-                         still_npz=a.still_npz)), flush=True)
+                         still_npz=a.still_npz, settle=a.settle, settle_alpha=a.settle_alpha)), flush=True)
 
 
 if __name__ == "__main__":
