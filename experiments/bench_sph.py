@@ -156,8 +156,8 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
 
 
 def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: float = 0.0, tag: str = "") -> dict:
-    """Interleaved A/B in one process: for each spec ``SKIN:K:TRIGGER`` (skin / dx, rebuild_every,
-    0/1) a chunk of ``steps`` steps (a multiple of every K) from the same initial state; reps are
+    """Interleaved A/B in one process: for each spec ``SKIN:K:TRIGGER[:DIFFUSION]`` (skin / dx,
+    rebuild_every, 0/1, optionally a ``DensityDiffusion`` value) a chunk of ``steps`` steps (a multiple of every K) from the same initial state; reps are
     interleaved so the variants see the same machine load. Returns one record with per-spec
     best wall and median CPU ms per step and the rebuild counts."""
     import jax
@@ -170,8 +170,9 @@ def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: fl
     nx = SIZES[size]
     runs = {}
     for spec in specs:
-        skin, k, trig = spec.split(":")
-        scene = rj.scenes.dam_break(dx=0.5 / nx, skin_factor=float(skin), rebuild_every=int(k))
+        skin, k, trig, *diff = spec.split(":")
+        kw = {"density_diffusion": rj.DensityDiffusion(diff[0])} if diff else {}
+        scene = rj.scenes.dam_break(dx=0.5 / nx, skin_factor=float(skin), rebuild_every=int(k), **kw)
         config, params, state0 = scene.config, scene.params, scene.state
         for _ in range(6):  # cure capacity bits the way the driver does
             state = jax.jit(lambda s, p, c=config: prime(s, p, c))(state0, params)
@@ -219,10 +220,11 @@ def main(argv=None):
     ap.add_argument("--warm-time", type=float, default=0.0, help="simulated seconds to run before timing")
     ap.add_argument("--no-trigger", action="store_true", help="fixed rebuild schedule (no displacement trigger)")
     ap.add_argument("--tag", default="", help="label stored in each record")
-    ap.add_argument("--diffusion", default=None, choices=["none", "molteni", "fourtakas", "antuono"],
+    ap.add_argument("--diffusion", default=None, choices=["none", "molteni", "fourtakas", "fourtakas_inner", "antuono"],
                     help="WCSPH density diffusion (scene default if omitted)")
-    ap.add_argument("--ab", nargs="+", metavar="SKIN:K:TRIGGER",
-                    help="interleaved in-process A/B of these settings (first size only), e.g. 0.6:8:0 0.3:32:1")
+    ap.add_argument("--ab", nargs="+", metavar="SKIN:K:TRIGGER[:DIFFUSION]",
+                    help="interleaved in-process A/B of these settings (first size only), e.g. 0.6:8:0 0.3:32:1 "
+                         "0.3:32:1:fourtakas_inner")
     ap.add_argument("--ab-steps", type=int, default=32)
     ap.add_argument("--case", nargs=2, metavar=("SIZE", "SCHEME"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)

@@ -3,17 +3,24 @@
 The stress scene (a water column a x 2a, a = 0.08 m, collapsing in a tank 2a long, a periodic slab
 7 dx wide) loses 0.1-0.25 m g 2a in the impact; afterwards, with the water all but still, the WCSPH
 total energy (kinetic + potential + Tait elastic, ``validation.energy_history``) climbs again by a
-few 1e-3 m g 2a over ~10 s. Two measurements, float64 (float32 creeps the same, see the test):
+few 1e-3 m g 2a. Three measurements, float64 (float32 creeps the same, see the test):
 
 * ``resolution``: the same scene at a/dx = 4, 6, 8 to ``--t-end``: the rebound (max over t of
   E(t) - min_{s<=t} E(s)) and E(t_end) - E(t_end / 2), in m g 2a; ``--diffusion fourtakas antuono``
-  runs it with each density diffusion (Antuono et al. 2010's consistent term: the fix);
-* ``continuation`` (a/dx = 4): from the state at ``--t-start`` the run is continued for ``--t-len``
-  with one term switched off at a time (same state, same dt): artificial viscosity (alpha = 0),
-  density diffusion (delta = 0), both, and the Fourtakas hydrostatic term replaced by its odd part
-  (``(H(a) - H(-a)) / 2``: the 4th-order series is not odd in ``a``, so its even part is a net
-  density source on vertical pairs). The energy change over the continuation says which term feeds
-  the creep.
+  runs it with each density diffusion;
+* ``continuation`` (a/dx = 4, ``--continuation-diffusion``, default ``fourtakas_inner``, the
+  default before 2026-11-26 that the records of 2026-11-24 ran): from the state at ``--t-start``
+  the run is continued for ``--t-len`` with one term switched off at a time (same state, same dt):
+  artificial viscosity (alpha = 0), density diffusion (delta = 0), both, and the Fourtakas
+  hydrostatic term replaced by its odd part (``(H(a) - H(-a)) / 2``: the 4th-order series is not
+  odd in ``a``, so its even part is a net density source on vertical pairs). The energy change
+  over the continuation says which term feeds the creep;
+* ``variants`` (``--variants``, a/dx = 4, from rest to ``--variants-t-end``): the two changes of
+  2026-11-26 that make ``DensityDiffusion.FOURTAKAS`` (pair-mean hydrostatic difference,
+  ``wcsph.hydrostatic_pair_difference``; wet Adami wall pairs, ``wcsph._diffusion_pairs``) taken
+  apart: ``fourtakas_inner`` (neither), ``fourtakas`` (both), and ``fourtakas`` with the wall
+  pairs left out, with every wall pair (dry ones, clamped at rho0, too), and with the odd part of
+  the surface series instead of the pair-mean difference.
 
 JSON lines out (``--out`` appends). Nothing here is a test.
 
@@ -78,11 +85,43 @@ def resolution(a_over_dx: int, t_end: float, diffusion: str = "fourtakas") -> di
             "lowest_particle_z_over_dx": [float(z[half].min() / (A / a_over_dx)), float(z[-1].min() / (A / a_over_dx))]}
 
 
-def continuation(t_start: float, t_len: float) -> list[dict]:
+def _odd_surface_series(g_dx, rho_i, rho_j, params, config):
+    from rockjax.sph import wcsph
+
+    h = wcsph.hydrostatic_density_difference
+    return 0.5 * (h(g_dx, params, config) - h(-g_dx, params, config))
+
+
+def variants(t_end: float) -> list[dict]:
+    """``fourtakas`` taken apart (module docstring): one ``resolution``-like run per variant."""
+    from rockjax.sph import wcsph
+    from rockjax.types import Kind
+
+    saved = (wcsph._diffusion_pairs, wcsph.hydrostatic_pair_difference)
+    cases = [("fourtakas_inner", "fourtakas_inner", {}),
+             ("fourtakas", "fourtakas", {}),
+             ("fourtakas, no wall pairs", "fourtakas", {"_diffusion_pairs": lambda k, r, p, c: k == Kind.FLUID}),
+             ("fourtakas, every wall pair (dry too)", "fourtakas", {"_diffusion_pairs": lambda k, r, p, c: k != Kind.PAD}),
+             ("fourtakas, odd surface series", "fourtakas", {"hydrostatic_pair_difference": _odd_surface_series})]
+    out = []
+    for name, diffusion, patch in cases:
+        for k, fn in patch.items():
+            setattr(wcsph, k, fn)
+        jax.clear_caches()
+        try:
+            r = resolution(4, t_end, diffusion)
+        finally:
+            wcsph._diffusion_pairs, wcsph.hydrostatic_pair_difference = saved
+        out.append({**r, "case": "variants", "variant": name})
+    jax.clear_caches()
+    return out
+
+
+def continuation(t_start: float, t_len: float, diffusion: str = "fourtakas_inner") -> list[dict]:
     import rockjax as rj
     from rockjax.sph import wcsph
 
-    scene = _scene(4)
+    scene = _scene(4, diffusion)
     first = rj.simulate(scene, t_end=t_start, frame_dt=0.25, progress=False)
     base = dataclasses.replace(scene, state=first.state)
     full_h = wcsph.hydrostatic_density_difference
@@ -104,7 +143,7 @@ def continuation(t_start: float, t_len: float) -> list[dict]:
         finally:
             wcsph.hydrostatic_density_difference = full_h
         t, e = _energy(res, scene)
-        out.append({"case": "continuation", "variant": name, "a_over_dx": 4, "t_start": t_start, "t_len": t_len,
+        out.append({"case": "continuation", "variant": name, "diffusion": diffusion, "a_over_dx": 4, "t_start": t_start, "t_len": t_len,
                     "dE": float(e["total"][-1] - e["total"][0]), "dE_potential": float(e["potential"][-1] - e["potential"][0]),
                     "dE_elastic": float(e["elastic"][-1] - e["elastic"][0]), "kinetic_start": float(e["kinetic"][0]),
                     "kinetic_max": float(e["kinetic"].max()), "kinetic_end": float(e["kinetic"][-1])})
@@ -117,12 +156,19 @@ def main():
     ap.add_argument("--t-end", type=float, default=16.0)
     ap.add_argument("--t-start", type=float, default=4.0)
     ap.add_argument("--t-len", type=float, default=6.0)
-    ap.add_argument("--diffusion", nargs="*", default=["fourtakas"], choices=["fourtakas", "antuono", "molteni"],
+    ap.add_argument("--diffusion", nargs="*", default=["fourtakas"], choices=["none", "molteni", "fourtakas", "fourtakas_inner", "antuono"],
                     help="density diffusion of the resolution runs (each)")
+    ap.add_argument("--continuation-diffusion", default="fourtakas_inner", choices=["fourtakas", "fourtakas_inner"])
+    ap.add_argument("--variants", action="store_true", help="only the variants case")
+    ap.add_argument("--variants-t-end", type=float, default=36.7)
     ap.add_argument("--out", default=None)
     a = ap.parse_args()
     stamp = {"date": datetime.date.today().isoformat(), "dtype": "float64", "load": os.getloadavg()[0]}
-    recs = [resolution(n, a.t_end, d) for d in a.diffusion for n in a.a_over_dx] + (continuation(a.t_start, a.t_len) if a.t_len > 0 else [])
+    if a.variants:
+        recs = variants(a.variants_t_end)
+    else:
+        recs = [resolution(n, a.t_end, d) for d in a.diffusion for n in a.a_over_dx]
+        recs += continuation(a.t_start, a.t_len, a.continuation_diffusion) if a.t_len > 0 else []
     for r in recs:
         emit({**r, **stamp}, a.out)
 

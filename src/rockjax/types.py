@@ -80,7 +80,15 @@ class DensityDiffusion(enum.Enum):
 
     NONE = "none"
     MOLTENI = "molteni"  #: Molteni & Colagrossi (2009)
-    FOURTAKAS = "fourtakas"  #: Fourtakas et al. (2019): Molteni minus the hydrostatic part
+    #: Fourtakas et al. (2019), "full" (DualSPHysics' DDT 3): Molteni minus the hydrostatic part of
+    #: each pair's density difference, over fluid pairs and, with Adami walls, fluid-wall pairs; the
+    #: hydrostatic part taken odd in the pair so the term only moves density between particles
+    #: (``sph.wcsph.hydrostatic_density_difference``)
+    FOURTAKAS = "fourtakas"
+    #: the same over fluid pairs only, with the hydrostatic part's exact (not odd) series: the
+    #: default before 2026-11-26 (DualSPHysics' DDT 2), kept for comparisons (it lets a column at
+    #: rest creep, ``experiments/energy_creep.py``)
+    FOURTAKAS_INNER = "fourtakas_inner"
     #: Antuono et al. (2010) consistent delta-SPH: Molteni minus the linear part of the density
     #: difference, from renormalised density gradients (one extra neighbour pass per step)
     ANTUONO = "antuono"

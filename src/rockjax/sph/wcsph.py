@@ -2,9 +2,10 @@
 
 * continuity equation ``drho_i/dt = rho_i sum_j V_j (v_i - v_j) . grad W_ij`` plus delta-SPH
   density diffusion (Molteni & Colagrossi 2009; Fourtakas et al. 2019 subtract its hydrostatic
-  part so a tank at rest stays at rest; Antuono et al. 2010 subtract its linear part, from
-  renormalised density gradients, so any linear density field -- the discrete hydrostatic one
-  included -- is left alone);
+  part so a tank at rest stays at rest -- here taken about each pair's mean density, and over
+  the wet Adami wall pairs too, ``hydrostatic_pair_difference``, ``_diffusion_pairs``; Antuono et
+  al. 2010 subtract its linear part, from renormalised density gradients, so any linear density
+  field -- the discrete hydrostatic one included -- is left alone);
 * Tait equation of state;
 * momentum-conserving pressure gradient ``-sum_j m_j (p_i + p_j)/(rho_i rho_j) grad W_ij``;
 * Monaghan artificial viscosity or a laminar (Morris / Lo & Shao) term;
@@ -56,13 +57,16 @@ def pair_terms(pr: Pairs, kind, params: Params, config: Config) -> PairTerms:
 
 
 def hydrostatic_density_difference(g_dx, params: Params, config: Config):
-    """Fourtakas et al. (2019) hydrostatic density difference ``rho0 ((1 + rho0 g_dx / B)^(1/gamma) - 1)``.
+    """Fourtakas et al. (2019) hydrostatic density difference ``rho0 ((1 + rho0 g_dx / B)^(1/gamma) - 1)``
+    (``DensityDiffusion.FOURTAKAS_INNER``): the Tait density at a height difference from the surface.
 
     ``g_dx`` [m^2/s^2] is ``g . (x_j - x_i)``. Evaluated as the 4th-order Taylor series in
     ``a = rho0 g_dx / B`` (no transcendental per pair: the exact ``expm1(log1p(a)/gamma)`` cost ~40 %
     of the continuity sum). The truncation error relative to the leading term is below
     ``0.15 a^4``; with c0 >= 10 v_max and neighbours within 2h, |a| < 0.01 in every built-in scene
     (error < 2e-9, under float32 rounding); |a| = 0.1 would still give < 2e-5.
+    Not odd in ``g_dx`` (an even part ``(1 - gamma) a / 2`` of the leading term): the pair (j, i)
+    does not get minus the pair (i, j)'s value, see ``hydrostatic_pair_difference``.
     """
     f = params.fluid
     B = f.rho0 * f.c0**2 / config.gamma
@@ -72,6 +76,29 @@ def hydrostatic_density_difference(g_dx, params: Params, config: Config):
     c3 = c2 * (s - 2.0) / 3.0
     c4 = c3 * (s - 3.0) / 4.0
     return f.rho0 * a * (c1 + a * (c2 + a * (c3 + a * c4)))
+
+
+def hydrostatic_pair_difference(g_dx, rho_i, rho_j, params: Params, config: Config):
+    """Hydrostatic density difference of a pair about its mean density (``DensityDiffusion.FOURTAKAS``):
+    ``g_dx rho_m / c(rho_m)^2 = rho0 (g_dx / c0^2) (rho_m / rho0)^(2 - gamma)``, ``rho_m = (rho_i + rho_j) / 2``.
+
+    ``g_dx`` [m^2/s^2] is ``g . (x_j - x_i)``; ``rho_i``, ``rho_j`` kg/m^3 (any shapes that broadcast).
+    The hydrostatic pressure difference over the pair, ``rho_m g_dx``, turned into a density
+    difference with the Tait sound speed at the pair's own density: a central difference, so it is
+    exact to third order in the height difference at any depth, and odd in the pair (the pair
+    (j, i) gets exactly minus the pair (i, j)'s value), so the diffusion term, like Molteni's, moves
+    density between the two particles and creates none. Fourtakas et al.'s own form
+    (``hydrostatic_density_difference``, from the surface's density) has an even part that is not
+    antisymmetric: in ``tests/stress``'s tank at rest (a/dx = 4, 2026-11-26) it made the fluid-pair
+    diffusion a net density source of 42 % of its summed magnitude, and the column kept rising
+    (``experiments/energy_creep.py``); its odd part alone left out the depth's compressibility,
+    and the column sank instead. The power is a 3-term series in ``e = rho_m / rho0 - 1``
+    (|e| < 0.01 with c0 >= 10 v_max: relative error 35 |e|^3 < 4e-5).
+    """
+    f = params.fluid
+    e = 0.5 * (rho_i + rho_j) / f.rho0 - 1.0
+    s = 2.0 - config.gamma
+    return f.rho0 * g_dx / f.c0**2 * (1.0 + s * e * (1.0 + 0.5 * (s - 1.0) * e * (1.0 + (s - 2.0) / 3.0 * e)))
 
 
 def _antuono(config: Config) -> bool:
@@ -173,6 +200,24 @@ def _wall_pressure(p, rho, kind, adami_sums, params: Params, config: Config):
     return jnp.where(wall, tait_pressure(rho, f.rho0, f.c0, config.gamma), p), rho
 
 
+def _diffusion_pairs(kind_j, rho_j, params: Params, config: Config):
+    """Which pairs [R, K] the density diffusion runs over: fluid pairs, and with
+    ``DensityDiffusion.FOURTAKAS`` and Adami walls the wet fluid-wall pairs (wall density above
+    rho0). An Adami wall's density is the fluid's pressure extrapolated with its hydrostatic part,
+    so the pair's difference minus the hydrostatic one is the fluid's deviation, as between two
+    fluid particles; a wall above the water line is clamped at p = 0 (rho0) instead of its negative
+    extrapolated pressure, and would pump density into the water at the contact line, so it stays
+    out (at p = 0 the extrapolated and the hydrostatic differences agree, so the switch is
+    continuous at rest). Without the walls the bottom layer's diffusion sees no neighbours below
+    it; with them, in ``tests/stress``'s tank at rest (a/dx = 4, float64, 2026-11-26), the energy's
+    climb after the impact fell from 3.7e-3 to 2.7e-3 m g 2a (``experiments/energy_creep.py``).
+    Dynamic walls (their densities from their own continuity, clamped at rho0) stay out."""
+    fluid = kind_j == Kind.FLUID
+    if config.density_diffusion == DensityDiffusion.FOURTAKAS and config.wall_model == WallModel.ADAMI:
+        return fluid | (rho_j > params.fluid.rho0)
+    return fluid
+
+
 def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params, config: Config, *,
                      wall_terms: bool = True, grad_rho=None):
     """Continuity sums of a block of rows: ``(drho/dt [R], wall terms [R, K] or None)``.
@@ -193,15 +238,20 @@ def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params,
     vr = sum((v_i[:, a, None] - take(v[:, a], idx)) * d[a] for a in range(3))
     drho = rho_i * V_j * vr * F
     if config.density_diffusion != DensityDiffusion.NONE:
-        diff = take(rho, idx) - rho_i
-        if config.density_diffusion == DensityDiffusion.FOURTAKAS:
+        rho_j = take(rho, idx)
+        diff = rho_j - rho_i
+        dd = config.density_diffusion
+        if dd in (DensityDiffusion.FOURTAKAS, DensityDiffusion.FOURTAKAS_INNER):
             g_dx = -(d[0] * params.gravity[0] + d[1] * params.gravity[1] + d[2] * params.gravity[2])
-            diff = diff - hydrostatic_density_difference(g_dx, params, config)
-        elif config.density_diffusion == DensityDiffusion.ANTUONO:
+            if dd == DensityDiffusion.FOURTAKAS:
+                diff = diff - hydrostatic_pair_difference(g_dx, rho_i, rho_j, params, config)
+            else:
+                diff = diff - hydrostatic_density_difference(g_dx, params, config)
+        elif dd == DensityDiffusion.ANTUONO:
             # minus the linear part: (rho_j - rho_i) - (g_i + g_j) / 2 . x_ji, with x_ji = -d
             g_i = rows.of(grad_rho)
             diff = diff + 0.5 * sum((g_i[:, a, None] + take(grad_rho[:, a], idx)) * d[a] for a in range(3))
-        drho = drho + jnp.where(kind_j == Kind.FLUID, (-2.0 * f.delta * f.h * f.c0) * V_j * diff * F, 0.0)
+        drho = drho + jnp.where(_diffusion_pairs(kind_j, rho_j, params, config), (-2.0 * f.delta * f.h * f.c0) * V_j * diff * F, 0.0)
     fluid = rows.of(kind) == Kind.FLUID
     wall_out = None
     if wall_terms and config.n_wall and config.wall_model == WallModel.DYNAMIC:
