@@ -36,6 +36,7 @@ nx = 14, 22, 34 (5488, 21296, 78608 fluid particles); ``160k`` is nx = 43.
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
 import os
 import resource
@@ -206,7 +207,8 @@ def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: fl
                      "cpu_ms_per_step": round(1e3 * sorted(r["cpus"])[len(r["cpus"]) // 2] / steps, 2),
                      "fluid_particle_steps_per_s": round(nf * steps / wall)}
     return {"bench": "sph_dam_break_3d_ab", "tag": tag, "size": size, "n_fluid": nf, "steps": steps, "reps": reps,
-            "warm_s": warm_time, "specs": res, "load_after": round(os.getloadavg()[0], 2), "jax": jax.__version__}
+            "warm_s": warm_time, "specs": res, "load_after": round(os.getloadavg()[0], 2), "jax": jax.__version__,
+            "date": datetime.date.today().isoformat()}
 
 
 def main(argv=None):

@@ -562,20 +562,34 @@ def sec_energy_creep(doc: Doc):
     doc.p("The stress long run's scene (column a x 2a, a = 0.08 m, periodic slab), float64. Energies in m g 2a. "
           "`rebound` = max_t E(t) - min_{s<=t} E(s) (stress bound 3e-3); `late` = E(t_end) - E(t_end / 2) "
           "(stress bound 1e-3 over the second half); `lowest z / dx` = the lowest water particle over dx at "
-          "t_end / 2 and t_end (0.5 on the initial lattice). `diffusion`: the WCSPH density diffusion -- the "
-          "default Fourtakas et al. (2019) term pulls pair differences to the exact hydrostatic ones and lifts the "
-          "column (the creep); Antuono et al. (2010)'s consistent term (`DensityDiffusion.ANTUONO`) leaves any "
-          "linear profile alone and removes it.")
-    rows = [[r.get("diffusion", "fourtakas"), r.get("a_over_dx"), r.get("n_fluid"), r.get("steps"), r.get("t_end"),
+          "t_end / 2 and t_end (0.5 on the initial lattice). `diffusion`: the WCSPH density diffusion -- "
+          "`fourtakas_inner`, Fourtakas et al. (2019)'s term over fluid pairs (the default until 2026-11-25, "
+          "recorded then as `fourtakas`), pulls pair differences to hydrostatic ones from the surface's density, "
+          "a series whose even part is a net density source, and lifts the column for as long as it runs (the "
+          "creep); `fourtakas` (the default since 2026-11-26) takes the difference about each pair's mean density "
+          "(odd in the pair) and runs over the wet Adami wall pairs too: the energy levels off; Antuono et al. "
+          "(2010)'s consistent term (`DensityDiffusion.ANTUONO`) leaves any linear profile alone.")
+
+    def label(r):
+        d = r.get("diffusion", "fourtakas")
+        return "fourtakas_inner" if d == "fourtakas" and r.get("date", "") < "2026-11-26" else d
+
+    rows = [[label(r), r.get("a_over_dx"), r.get("n_fluid"), r.get("steps"), r.get("t_end"),
              r.get("lost"), r.get("t_min"), r.get("rebound"), r.get("late"), r.get("kinetic_end"),
              r.get("lowest_particle_z_over_dx"), r.get("date")]
             for r in recs if r.get("case") == "resolution"]
     doc.p(table(["diffusion", "a/dx", "n_fluid", "steps", "t_end s", "lost", "t of min s", "rebound", "late", "kinetic end",
                  "lowest z / dx", "date"], rows))
+    var = [r for r in recs if r.get("case") == "variants"]
+    if var:
+        doc.p("`energy_creep.py --variants` (a/dx = 4, from rest): the two changes of 2026-11-26 taken apart.")
+        rows = [[r.get("variant"), r.get("t_end"), r.get("lost"), r.get("t_min"), r.get("rebound"), r.get("late"),
+                 r.get("kinetic_end"), r.get("date")] for r in var]
+        doc.p(table(["variant", "t_end s", "lost", "t of min s", "rebound", "late", "kinetic end", "date"], rows))
     cont = [r for r in recs if r.get("case") == "continuation"]
     if cont:
         doc.p("Continuations (a/dx = 4) from the same state, one term off at a time: energy change over the "
-              "continuation.")
+              "continuation (`fourtakas_inner`).")
         rows = [[r.get("variant"), r.get("t_start"), r.get("t_len"), r.get("dE"), r.get("dE_potential"),
                  r.get("dE_elastic"), r.get("kinetic_max"), r.get("kinetic_end"), r.get("date")] for r in cont]
         doc.p(table(["variant", "from t s", "for s", "dE", "dE potential", "dE elastic", "kinetic max",
@@ -641,6 +655,27 @@ def sec_stress(doc: Doc):
         doc.p(table(["test", "outcome", "time s", "message"], rows))
 
 
+def sec_sph_ab(doc: Doc):
+    doc.h("WCSPH settings A/B (3D dam break, interleaved in one process)")
+    recs = doc.records("bench_sph_ab.jsonl", "python experiments/bench_sph.py --sizes 20k --ab 0.3:8:1:fourtakas "
+                       "0.3:8:1:fourtakas_inner --reps 5 --tag diffusion-ab >> experiments/results/bench_sph_ab.jsonl")
+    if recs is None:
+        return
+    doc.p("`bench_sph.py --ab SKIN:K:TRIGGER[:DIFFUSION]`: each setting's chunk of `steps` steps from the same state, "
+          "the settings' repetitions interleaved; best wall time. `vs first` = speed relative to the record's first "
+          "setting. Tags: `ab_*` the Verlet skin and list schedule (2026-11-23), `diffusion-ab` the density diffusion "
+          "of 2026-11-26 (`fourtakas`: pair-mean hydrostatic difference and wet wall pairs) against the old term "
+          "(`fourtakas_inner`).")
+    rows = []
+    for r in recs:
+        specs = list(r["specs"].items())
+        first = specs[0][1]["ms_per_step"]
+        for spec, v in specs:
+            rows.append([r.get("tag"), r.get("n_fluid"), r.get("warm_s"), spec, v.get("K"), v.get("ms_per_step"),
+                         v.get("fluid_particle_steps_per_s"), first / v["ms_per_step"], r.get("date", "2026-11-23")])
+    doc.p(table(["tag", "n_fluid", "t warm s", "setting", "K", "ms/step", "particle-steps/s", "vs first", "date"], rows))
+
+
 def sec_flags(doc: Doc):
     doc.h("XLA:CPU flags: YNNPACK library fusions off vs XLA's defaults")
     recs = doc.records("bench_flags.jsonl", "python experiments/bench_flags.py")
@@ -661,7 +696,7 @@ def sec_flags(doc: Doc):
 
 
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_calibration, sec_piston,
-            sec_wedge, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_hydrostatic_rest, sec_flags, sec_stress]
+            sec_wedge, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_stress]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:
