@@ -222,11 +222,11 @@ def main(argv=None):
     ap.add_argument("--warm-time", type=float, default=0.0, help="simulated seconds to run before timing")
     ap.add_argument("--no-trigger", action="store_true", help="fixed rebuild schedule (no displacement trigger)")
     ap.add_argument("--tag", default="", help="label stored in each record")
-    ap.add_argument("--diffusion", default=None, choices=["none", "molteni", "fourtakas", "fourtakas_inner", "antuono"],
+    ap.add_argument("--diffusion", default=None, choices=["none", "molteni", "fourtakas", "fourtakas_surface", "antuono"],
                     help="WCSPH density diffusion (scene default if omitted)")
     ap.add_argument("--ab", nargs="+", metavar="SKIN:K:TRIGGER[:DIFFUSION]",
                     help="interleaved in-process A/B of these settings (first size only), e.g. 0.6:8:0 0.3:32:1 "
-                         "0.3:32:1:fourtakas_inner")
+                         "0.3:32:1:fourtakas_surface")
     ap.add_argument("--ab-steps", type=int, default=32)
     ap.add_argument("--case", nargs=2, metavar=("SIZE", "SCHEME"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)

@@ -8,19 +8,19 @@ few 1e-3 m g 2a. Three measurements, float64 (float32 creeps the same, see the t
 * ``resolution``: the same scene at a/dx = 4, 6, 8 to ``--t-end``: the rebound (max over t of
   E(t) - min_{s<=t} E(s)) and E(t_end) - E(t_end / 2), in m g 2a; ``--diffusion fourtakas antuono``
   runs it with each density diffusion;
-* ``continuation`` (a/dx = 4, ``--continuation-diffusion``, default ``fourtakas_inner``, the
+* ``continuation`` (a/dx = 4, ``--continuation-diffusion``, default ``fourtakas_surface``, the
   default before 2026-11-26 that the records of 2026-11-24 ran): from the state at ``--t-start``
   the run is continued for ``--t-len`` with one term switched off at a time (same state, same dt):
   artificial viscosity (alpha = 0), density diffusion (delta = 0), both, and the Fourtakas
   hydrostatic term replaced by its odd part (``(H(a) - H(-a)) / 2``: the 4th-order series is not
   odd in ``a``, so its even part is a net density source on vertical pairs). The energy change
   over the continuation says which term feeds the creep;
-* ``variants`` (``--variants``, a/dx = 4, from rest to ``--variants-t-end``): the two changes of
-  2026-11-26 that make ``DensityDiffusion.FOURTAKAS`` (pair-mean hydrostatic difference,
-  ``wcsph.hydrostatic_pair_difference``; wet Adami wall pairs, ``wcsph._diffusion_pairs``) taken
-  apart: ``fourtakas_inner`` (neither), ``fourtakas`` (both), and ``fourtakas`` with the wall
-  pairs left out, with every wall pair (dry ones, clamped at rho0, too), and with the odd part of
-  the surface series instead of the pair-mean difference.
+* ``variants`` (``--variants``, a/dx = 4, from rest to ``--variants-t-end``): the change of
+  2026-11-26 that makes ``DensityDiffusion.FOURTAKAS`` (the hydrostatic difference about each
+  pair's mean density, ``wcsph.hydrostatic_pair_difference``) against the old term
+  (``fourtakas_surface``), and what was tried with it: the odd part of the surface series instead,
+  and the wet (wall density above rho0) or every Adami wall pair in the diffusion too
+  (``wcsph._diffusion_pairs``; not kept: see its docstring).
 
 JSON lines out (``--out`` appends). Nothing here is a test.
 
@@ -98,11 +98,12 @@ def variants(t_end: float) -> list[dict]:
     from rockjax.types import Kind
 
     saved = (wcsph._diffusion_pairs, wcsph.hydrostatic_pair_difference)
-    cases = [("fourtakas_inner", "fourtakas_inner", {}),
+    cases = [("fourtakas_surface", "fourtakas_surface", {}),
              ("fourtakas", "fourtakas", {}),
-             ("fourtakas, no wall pairs", "fourtakas", {"_diffusion_pairs": lambda k, r, p, c: k == Kind.FLUID}),
-             ("fourtakas, every wall pair (dry too)", "fourtakas", {"_diffusion_pairs": lambda k, r, p, c: k != Kind.PAD}),
-             ("fourtakas, odd surface series", "fourtakas", {"hydrostatic_pair_difference": _odd_surface_series})]
+             ("fourtakas, odd surface series", "fourtakas", {"hydrostatic_pair_difference": _odd_surface_series}),
+             ("fourtakas + wet wall pairs", "fourtakas",
+              {"_diffusion_pairs": lambda k, r, p, c: (k == Kind.FLUID) | (r > p.fluid.rho0)}),
+             ("fourtakas + every wall pair", "fourtakas", {"_diffusion_pairs": lambda k, r, p, c: k != Kind.PAD})]
     out = []
     for name, diffusion, patch in cases:
         for k, fn in patch.items():
@@ -117,7 +118,7 @@ def variants(t_end: float) -> list[dict]:
     return out
 
 
-def continuation(t_start: float, t_len: float, diffusion: str = "fourtakas_inner") -> list[dict]:
+def continuation(t_start: float, t_len: float, diffusion: str = "fourtakas_surface") -> list[dict]:
     import rockjax as rj
     from rockjax.sph import wcsph
 
@@ -156,9 +157,9 @@ def main():
     ap.add_argument("--t-end", type=float, default=16.0)
     ap.add_argument("--t-start", type=float, default=4.0)
     ap.add_argument("--t-len", type=float, default=6.0)
-    ap.add_argument("--diffusion", nargs="*", default=["fourtakas"], choices=["none", "molteni", "fourtakas", "fourtakas_inner", "antuono"],
+    ap.add_argument("--diffusion", nargs="*", default=["fourtakas"], choices=["none", "molteni", "fourtakas", "fourtakas_surface", "antuono"],
                     help="density diffusion of the resolution runs (each)")
-    ap.add_argument("--continuation-diffusion", default="fourtakas_inner", choices=["fourtakas", "fourtakas_inner"])
+    ap.add_argument("--continuation-diffusion", default="fourtakas_surface", choices=["fourtakas", "fourtakas_surface"])
     ap.add_argument("--variants", action="store_true", help="only the variants case")
     ap.add_argument("--variants-t-end", type=float, default=36.7)
     ap.add_argument("--out", default=None)

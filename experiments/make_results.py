@@ -563,16 +563,16 @@ def sec_energy_creep(doc: Doc):
           "`rebound` = max_t E(t) - min_{s<=t} E(s) (stress bound 3e-3); `late` = E(t_end) - E(t_end / 2) "
           "(stress bound 1e-3 over the second half); `lowest z / dx` = the lowest water particle over dx at "
           "t_end / 2 and t_end (0.5 on the initial lattice). `diffusion`: the WCSPH density diffusion -- "
-          "`fourtakas_inner`, Fourtakas et al. (2019)'s term over fluid pairs (the default until 2026-11-25, "
-          "recorded then as `fourtakas`), pulls pair differences to hydrostatic ones from the surface's density, "
-          "a series whose even part is a net density source, and lifts the column for as long as it runs (the "
-          "creep); `fourtakas` (the default since 2026-11-26) takes the difference about each pair's mean density "
-          "(odd in the pair) and runs over the wet Adami wall pairs too: the energy levels off; Antuono et al. "
-          "(2010)'s consistent term (`DensityDiffusion.ANTUONO`) leaves any linear profile alone.")
+          "`fourtakas_surface`, Fourtakas et al. (2019)'s term (the default until 2026-11-25, recorded then as "
+          "`fourtakas`), pulls pair differences to hydrostatic ones taken from the surface's density, a series "
+          "whose even part is a net density source, and lifts the column for as long as it runs (the creep); "
+          "`fourtakas` (the default since 2026-11-26) takes them about each pair's mean density (odd in the pair): "
+          "the energy levels off; Antuono et al. (2010)'s consistent term (`DensityDiffusion.ANTUONO`) leaves any "
+          "linear profile alone.")
 
     def label(r):
         d = r.get("diffusion", "fourtakas")
-        return "fourtakas_inner" if d == "fourtakas" and r.get("date", "") < "2026-11-26" else d
+        return "fourtakas_surface" if d == "fourtakas" and r.get("date", "") < "2026-11-26" else d
 
     rows = [[label(r), r.get("a_over_dx"), r.get("n_fluid"), r.get("steps"), r.get("t_end"),
              r.get("lost"), r.get("t_min"), r.get("rebound"), r.get("late"), r.get("kinetic_end"),
@@ -582,14 +582,16 @@ def sec_energy_creep(doc: Doc):
                  "lowest z / dx", "date"], rows))
     var = [r for r in recs if r.get("case") == "variants"]
     if var:
-        doc.p("`energy_creep.py --variants` (a/dx = 4, from rest): the two changes of 2026-11-26 taken apart.")
+        doc.p("`energy_creep.py --variants` (a/dx = 4, from rest): the change of 2026-11-26 against the old term, "
+              "and what was tried with it (the wall pairs were not kept: in the 20 m/s impact stress test they let "
+              "water through the tank's walls).")
         rows = [[r.get("variant"), r.get("t_end"), r.get("lost"), r.get("t_min"), r.get("rebound"), r.get("late"),
                  r.get("kinetic_end"), r.get("date")] for r in var]
         doc.p(table(["variant", "t_end s", "lost", "t of min s", "rebound", "late", "kinetic end", "date"], rows))
     cont = [r for r in recs if r.get("case") == "continuation"]
     if cont:
         doc.p("Continuations (a/dx = 4) from the same state, one term off at a time: energy change over the "
-              "continuation (`fourtakas_inner`).")
+              "continuation (`fourtakas_surface`).")
         rows = [[r.get("variant"), r.get("t_start"), r.get("t_len"), r.get("dE"), r.get("dE_potential"),
                  r.get("dE_elastic"), r.get("kinetic_max"), r.get("kinetic_end"), r.get("date")] for r in cont]
         doc.p(table(["variant", "from t s", "for s", "dE", "dE potential", "dE elastic", "kinetic max",
@@ -658,14 +660,14 @@ def sec_stress(doc: Doc):
 def sec_sph_ab(doc: Doc):
     doc.h("WCSPH settings A/B (3D dam break, interleaved in one process)")
     recs = doc.records("bench_sph_ab.jsonl", "python experiments/bench_sph.py --sizes 20k --ab 0.3:8:1:fourtakas "
-                       "0.3:8:1:fourtakas_inner --reps 5 --tag diffusion-ab >> experiments/results/bench_sph_ab.jsonl")
+                       "0.3:8:1:fourtakas_surface --reps 5 --tag diffusion-ab >> experiments/results/bench_sph_ab.jsonl")
     if recs is None:
         return
     doc.p("`bench_sph.py --ab SKIN:K:TRIGGER[:DIFFUSION]`: each setting's chunk of `steps` steps from the same state, "
           "the settings' repetitions interleaved; best wall time. `vs first` = speed relative to the record's first "
           "setting. Tags: `ab_*` the Verlet skin and list schedule (2026-11-23), `diffusion-ab` the density diffusion "
-          "of 2026-11-26 (`fourtakas`: pair-mean hydrostatic difference and wet wall pairs) against the old term "
-          "(`fourtakas_inner`).")
+          "of 2026-11-26 (`fourtakas`: the pair-mean hydrostatic difference) against the old term "
+          "(`fourtakas_surface`).")
     rows = []
     for r in recs:
         specs = list(r["specs"].items())

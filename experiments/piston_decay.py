@@ -108,7 +108,7 @@ def main():
                     help="viscous factor towards walls/blocks (default: the scene's; 0 = free slip)")
     ap.add_argument("--h-factor", type=float, default=1.5, help="smoothing length / dx (the scene's default)")
     ap.add_argument("--stroke", type=float, default=STROKE, help="paddle stroke m")
-    ap.add_argument("--diffusion", default="fourtakas", choices=["none", "molteni", "fourtakas", "fourtakas_inner", "antuono"])
+    ap.add_argument("--diffusion", default="fourtakas", choices=["none", "molteni", "fourtakas", "fourtakas_surface", "antuono"])
     ap.add_argument("--out", default=None, help="JSON-lines file the record is appended to "
                                                 "(default results/piston_decay.jsonl)")
     ap.add_argument("--from-npz", default=None, help="analyse a saved run instead of simulating")

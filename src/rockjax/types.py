@@ -80,15 +80,14 @@ class DensityDiffusion(enum.Enum):
 
     NONE = "none"
     MOLTENI = "molteni"  #: Molteni & Colagrossi (2009)
-    #: Fourtakas et al. (2019), "full" (DualSPHysics' DDT 3): Molteni minus the hydrostatic part of
-    #: each pair's density difference, over fluid pairs and, with Adami walls, fluid-wall pairs; the
-    #: hydrostatic part taken odd in the pair so the term only moves density between particles
-    #: (``sph.wcsph.hydrostatic_density_difference``)
+    #: Fourtakas et al. (2019): Molteni minus the hydrostatic part of each fluid pair's density
+    #: difference, taken about the pair's mean density so that it is odd in the pair and the term
+    #: only moves density between particles (``sph.wcsph.hydrostatic_pair_difference``)
     FOURTAKAS = "fourtakas"
-    #: the same over fluid pairs only, with the hydrostatic part's exact (not odd) series: the
-    #: default before 2026-11-26 (DualSPHysics' DDT 2), kept for comparisons (it lets a column at
+    #: the same with Fourtakas et al.'s own hydrostatic difference, from the surface's density (not
+    #: odd in the pair): the default before 2026-11-26, kept for comparisons (it lets a column at
     #: rest creep, ``experiments/energy_creep.py``)
-    FOURTAKAS_INNER = "fourtakas_inner"
+    FOURTAKAS_SURFACE = "fourtakas_surface"
     #: Antuono et al. (2010) consistent delta-SPH: Molteni minus the linear part of the density
     #: difference, from renormalised density gradients (one extra neighbour pass per step)
     ANTUONO = "antuono"

@@ -37,17 +37,17 @@ left alone. The third run (``wcsph-antuono``) uses it: measured (float32, 1e5 st
 rebound 5.2e-4, late drift 5.0e-5 -- within the bounds.
 
 Second fix, 2026-11-26, of the default (``DensityDiffusion.FOURTAKAS``; the old term is kept as
-``FOURTAKAS_INNER``): found by summing the diffusion at rest, Fourtakas et al.'s hydrostatic
-difference (from the surface's density) is not odd in the pair, so the fluid pairs' diffusion was
-a net density source of 42 % of its summed magnitude; the default now takes it about each pair's
-mean density (``wcsph.hydrostatic_pair_difference``: odd, exact to third order at any depth), and
-runs over the wet Adami wall pairs too (``wcsph._diffusion_pairs``: the bottom layer's stencil was
-missing its wall half). The energy now levels off instead of creeping (``experiments/energy_creep.py
---variants``): measured (float32, 1e5 steps, 39 s) rebound 3.19e-3 (was 5.6e-3 / 6.4e-3), late drift
-2.4e-4 (was 1.40e-3 / 1.56e-3): the late-drift bound now holds; the rebound still exceeds 3e-3 by
-6 % (strict xfail, ``KNOWN``). It is the column settling into the discrete rest state that the
-diffusion and the truncated kernel agree on, and shrinks with resolution (float64, 36.7 s: 3.8e-3
-at a/dx = 4, 2.0e-3 at a/dx = 6).
+``FOURTAKAS_SURFACE``): found by summing the diffusion at rest, Fourtakas et al.'s hydrostatic
+difference (from the surface's density) is not odd in the pair, so the diffusion was a net
+density source of 42 % of its summed magnitude; the default now takes it about each pair's mean
+density (``wcsph.hydrostatic_pair_difference``: odd, exact to third order at any depth). The energy
+now levels off instead of creeping (``experiments/energy_creep.py --variants``): measured
+(float32, 1e5 steps, 24 s) rebound 3.06e-3 (was 5.6e-3 / 6.4e-3), late drift 2.6e-4 (was
+1.40e-3 / 1.56e-3): the late-drift bound now holds. The rebound sits at its bound: 3.06e-3 here,
+4.0e-3 in float64 (the impact is chaotic, so rounding moves it by tens of per cent), so it is
+a non-strict xfail (``EDGE``): reported either way, failing neither. It is the column settling
+into the discrete rest state that the diffusion and the truncated kernel at the free surface agree
+on, and shrinks with resolution (float64, 16 s: 3.6e-3 / 1.9e-3 / 1.0e-3 at a/dx = 4 / 6 / 8).
 """
 
 from __future__ import annotations
@@ -131,11 +131,11 @@ def test_mass_conserved_exactly(long_run):
 
 #: measured failures (xfail strict: a fix turns them into XPASS -> failure, so this table is kept true)
 KNOWN = {
-    ("rebound", "wcsph"): "measured 2026-11-26 (float32, 1e5 steps): rebound 3.19e-3 > 3e-3 m g 2a: after the impact the "
-    "column rises into the rest state that the diffusion and the truncated kernel agree on and levels off (late drift "
-    "2.4e-4). Before the fix of 2026-11-26 (module docstring; ``DensityDiffusion.FOURTAKAS_INNER``) 5.6e-3 / 6.4e-3, "
-    "climbing at ~1.5e-4 m g 2a per second to the end. Shrinks with resolution (float64, 36.7 s: 3.8e-3 at a/dx = 4, "
-    "2.0e-3 at a/dx = 6)",
+    ("rebound", "wcsph"): "measured 2026-11-26 (float32, 1e5 steps): rebound 3.06e-3 > 3e-3 m g 2a (float64: 4.0e-3): "
+    "after the impact the column rises into the rest state that the diffusion and the truncated kernel agree on and "
+    "levels off (late drift 2.6e-4). Before the fix of 2026-11-26 (module docstring; "
+    "``DensityDiffusion.FOURTAKAS_SURFACE``) 5.6e-3 / 6.4e-3, climbing at ~1.5e-4 m g 2a per second to the end. "
+    "Shrinks with resolution (float64, 16 s: 3.6e-3 / 1.9e-3 / 1.0e-3 at a/dx = 4 / 6 / 8)",
     ("rebound", "seed"): "measured 2026-11-23 (float32, 1e5 steps, two runs): rebound 2.1e-2 / 2.6e-2 > 3e-3 m g 2a: at a/dx = 4 "
     "the seed scheme's water never comes to rest in 36.7 s (kinetic 2.5e-2 m g 2a at the end, mean |rho/rho0 - 1| "
     "6.7e-2) and its total energy wanders by ~1e-2 (cf. tests/physics/test_energy.py: the seed scheme needs "
@@ -146,10 +146,15 @@ KNOWN = {
 }
 
 
+#: measured failures within rounding of their bound (a chaotic impact precedes them): non-strict xfails
+EDGE = {("rebound", "wcsph")}
+
+
 def _known(request, long_run, name):
-    reason = KNOWN.get((name, long_run["run"]))
+    key = (name, long_run["run"])
+    reason = KNOWN.get(key)
     if reason:
-        request.applymarker(pytest.mark.xfail(strict=True, raises=AssertionError, reason=reason))
+        request.applymarker(pytest.mark.xfail(strict=key not in EDGE, raises=AssertionError, reason=reason))
 
 
 def test_energy_no_growth(long_run, request):

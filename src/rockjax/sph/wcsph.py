@@ -1,11 +1,11 @@
 """The accurate weakly compressible scheme (``Scheme.WCSPH``, the default).
 
 * continuity equation ``drho_i/dt = rho_i sum_j V_j (v_i - v_j) . grad W_ij`` plus delta-SPH
-  density diffusion (Molteni & Colagrossi 2009; Fourtakas et al. 2019 subtract its hydrostatic
-  part so a tank at rest stays at rest -- here taken about each pair's mean density, and over
-  the wet Adami wall pairs too, ``hydrostatic_pair_difference``, ``_diffusion_pairs``; Antuono et
-  al. 2010 subtract its linear part, from renormalised density gradients, so any linear density
-  field -- the discrete hydrostatic one included -- is left alone);
+  density diffusion over fluid pairs (Molteni & Colagrossi 2009; Fourtakas et al. 2019 subtract
+  its hydrostatic part so a tank at rest stays at rest -- here taken about each pair's mean
+  density, ``hydrostatic_pair_difference``; Antuono et al. 2010 subtract its linear part, from
+  renormalised density gradients, so any linear density field -- the discrete hydrostatic one
+  included -- is left alone);
 * Tait equation of state;
 * momentum-conserving pressure gradient ``-sum_j m_j (p_i + p_j)/(rho_i rho_j) grad W_ij``;
 * Monaghan artificial viscosity or a laminar (Morris / Lo & Shao) term;
@@ -58,7 +58,7 @@ def pair_terms(pr: Pairs, kind, params: Params, config: Config) -> PairTerms:
 
 def hydrostatic_density_difference(g_dx, params: Params, config: Config):
     """Fourtakas et al. (2019) hydrostatic density difference ``rho0 ((1 + rho0 g_dx / B)^(1/gamma) - 1)``
-    (``DensityDiffusion.FOURTAKAS_INNER``): the Tait density at a height difference from the surface.
+    (``DensityDiffusion.FOURTAKAS_SURFACE``): the Tait density at a height difference from the surface.
 
     ``g_dx`` [m^2/s^2] is ``g . (x_j - x_i)``. Evaluated as the 4th-order Taylor series in
     ``a = rho0 g_dx / B`` (no transcendental per pair: the exact ``expm1(log1p(a)/gamma)`` cost ~40 %
@@ -201,21 +201,17 @@ def _wall_pressure(p, rho, kind, adami_sums, params: Params, config: Config):
 
 
 def _diffusion_pairs(kind_j, rho_j, params: Params, config: Config):
-    """Which pairs [R, K] the density diffusion runs over: fluid pairs, and with
-    ``DensityDiffusion.FOURTAKAS`` and Adami walls the wet fluid-wall pairs (wall density above
-    rho0). An Adami wall's density is the fluid's pressure extrapolated with its hydrostatic part,
-    so the pair's difference minus the hydrostatic one is the fluid's deviation, as between two
-    fluid particles; a wall above the water line is clamped at p = 0 (rho0) instead of its negative
-    extrapolated pressure, and would pump density into the water at the contact line, so it stays
-    out (at p = 0 the extrapolated and the hydrostatic differences agree, so the switch is
-    continuous at rest). Without the walls the bottom layer's diffusion sees no neighbours below
-    it; with them, in ``tests/stress``'s tank at rest (a/dx = 4, float64, 2026-11-26), the energy's
-    climb after the impact fell from 3.7e-3 to 2.7e-3 m g 2a (``experiments/energy_creep.py``).
-    Dynamic walls (their densities from their own continuity, clamped at rho0) stay out."""
-    fluid = kind_j == Kind.FLUID
-    if config.density_diffusion == DensityDiffusion.FOURTAKAS and config.wall_model == WallModel.ADAMI:
-        return fluid | (rho_j > params.fluid.rho0)
-    return fluid
+    """Which pairs [R, K] the density diffusion runs over: the fluid pairs (``kind_j`` the
+    neighbours' kinds, ``rho_j`` their densities; the signature lets experiments try others).
+
+    Tried 2026-11-26 and not kept: the wet Adami wall pairs too (wall density above rho0;
+    DualSPHysics' "full" Fourtakas variant), whose densities are the fluid's pressure extrapolated
+    with its hydrostatic part. At rest they helped little (``tests/stress``'s tank, a/dx = 4,
+    float64, 36.7 s: rebound 3.8e-3 vs 4.0e-3 m g 2a, ``experiments/energy_creep.py --variants``),
+    and in the 20 m/s block impact (``tests/stress/test_impact.py``, boundary particles) they let
+    4 water particles through the tank's walls (none without them).
+    """
+    return kind_j == Kind.FLUID
 
 
 def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params, config: Config, *,
@@ -241,7 +237,7 @@ def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params,
         rho_j = take(rho, idx)
         diff = rho_j - rho_i
         dd = config.density_diffusion
-        if dd in (DensityDiffusion.FOURTAKAS, DensityDiffusion.FOURTAKAS_INNER):
+        if dd in (DensityDiffusion.FOURTAKAS, DensityDiffusion.FOURTAKAS_SURFACE):
             g_dx = -(d[0] * params.gravity[0] + d[1] * params.gravity[1] + d[2] * params.gravity[2])
             if dd == DensityDiffusion.FOURTAKAS:
                 diff = diff - hydrostatic_pair_difference(g_dx, rho_i, rho_j, params, config)
