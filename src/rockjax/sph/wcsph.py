@@ -91,8 +91,9 @@ def hydrostatic_pair_difference(g_dx, rho_i, rho_j, params: Params, config: Conf
     (``hydrostatic_density_difference``, from the surface's density) has an even part that is not
     antisymmetric: in ``tests/stress``'s tank at rest (a/dx = 4, 2026-11-26) it made the fluid-pair
     diffusion a net density source of 42 % of its summed magnitude, and the column kept rising
-    (``experiments/energy_creep.py``); its odd part alone left out the depth's compressibility,
-    and the column sank instead. The power is a 3-term series in ``e = rho_m / rho0 - 1``
+    (``experiments/energy_creep.py``). Its odd part alone is odd too, and did as well in that tank,
+    but its slope is the surface's, off by ~(gamma - 2) g depth / c0^2 of the difference at depth
+    (``tests/unit/test_density_diffusion.py``). The power is a 3-term series in ``e = rho_m / rho0 - 1``
     (|e| < 0.01 with c0 >= 10 v_max: relative error 35 |e|^3 < 4e-5).
     """
     f = params.fluid
@@ -247,7 +248,8 @@ def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params,
             # minus the linear part: (rho_j - rho_i) - (g_i + g_j) / 2 . x_ji, with x_ji = -d
             g_i = rows.of(grad_rho)
             diff = diff + 0.5 * sum((g_i[:, a, None] + take(grad_rho[:, a], idx)) * d[a] for a in range(3))
-        drho = drho + jnp.where(_diffusion_pairs(kind_j, rho_j, params, config), (-2.0 * f.delta * f.h * f.c0) * V_j * diff * F, 0.0)
+        use = _diffusion_pairs(kind_j, rho_j, params, config)
+        drho = drho + jnp.where(use, (-2.0 * f.delta * f.h * f.c0) * V_j * diff * F, 0.0)
     fluid = rows.of(kind) == Kind.FLUID
     wall_out = None
     if wall_terms and config.n_wall and config.wall_model == WallModel.DYNAMIC:
