@@ -212,6 +212,8 @@ def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: fl
 
 
 def main(argv=None):
+    from rockjax.types import DensityDiffusion
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", nargs="+", default=["5k", "20k", "80k"], choices=list(SIZES))
     ap.add_argument("--schemes", nargs="+", default=["wcsph", "seed"])
@@ -222,7 +224,7 @@ def main(argv=None):
     ap.add_argument("--warm-time", type=float, default=0.0, help="simulated seconds to run before timing")
     ap.add_argument("--no-trigger", action="store_true", help="fixed rebuild schedule (no displacement trigger)")
     ap.add_argument("--tag", default="", help="label stored in each record")
-    ap.add_argument("--diffusion", default=None, choices=["none", "molteni", "fourtakas", "fourtakas_surface", "antuono"],
+    ap.add_argument("--diffusion", default=None, choices=[d.value for d in DensityDiffusion],
                     help="WCSPH density diffusion (scene default if omitted)")
     ap.add_argument("--ab", nargs="+", metavar="SKIN:K:TRIGGER[:DIFFUSION]",
                     help="interleaved in-process A/B of these settings (first size only), e.g. 0.6:8:0 0.3:32:1 "

@@ -152,12 +152,14 @@ def continuation(t_start: float, t_len: float, diffusion: str = "fourtakas_surfa
 
 
 def main():
+    from rockjax.types import DensityDiffusion
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--a-over-dx", type=int, nargs="*", default=[4, 6, 8])
     ap.add_argument("--t-end", type=float, default=16.0)
     ap.add_argument("--t-start", type=float, default=4.0)
     ap.add_argument("--t-len", type=float, default=6.0)
-    ap.add_argument("--diffusion", nargs="*", default=["fourtakas"], choices=["none", "molteni", "fourtakas", "fourtakas_surface", "antuono"],
+    ap.add_argument("--diffusion", nargs="*", default=["fourtakas"], choices=[d.value for d in DensityDiffusion],
                     help="density diffusion of the resolution runs (each)")
     ap.add_argument("--continuation-diffusion", default="fourtakas_surface", choices=["fourtakas", "fourtakas_surface"])
     ap.add_argument("--variants", action="store_true", help="only the variants case")

@@ -65,9 +65,11 @@ def run(h_factor: float, diffusion: str, t_end: float) -> dict:
 
 
 def main():
+    from rockjax.types import DensityDiffusion
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--h-factor", type=float, nargs="*", default=[1.3, 1.5])
-    ap.add_argument("--diffusion", nargs="*", default=["fourtakas"], choices=["none", "molteni", "fourtakas", "fourtakas_surface", "antuono"])
+    ap.add_argument("--diffusion", nargs="*", default=["fourtakas"], choices=[d.value for d in DensityDiffusion])
     ap.add_argument("--t-end", type=float, default=1.6)
     ap.add_argument("--out", default=None)
     a = ap.parse_args()

@@ -99,6 +99,8 @@ def analyse(npz: str, delays=(0, 1, 2)) -> dict:
 
 
 def main():
+    from rockjax.types import DensityDiffusion
+
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--dx", type=float, default=0.03)
     ap.add_argument("--t-end", type=float, default=6.0)
@@ -108,7 +110,7 @@ def main():
                     help="viscous factor towards walls/blocks (default: the scene's; 0 = free slip)")
     ap.add_argument("--h-factor", type=float, default=1.5, help="smoothing length / dx (the scene's default)")
     ap.add_argument("--stroke", type=float, default=STROKE, help="paddle stroke m")
-    ap.add_argument("--diffusion", default="fourtakas", choices=["none", "molteni", "fourtakas", "fourtakas_surface", "antuono"])
+    ap.add_argument("--diffusion", default="fourtakas", choices=[d.value for d in DensityDiffusion])
     ap.add_argument("--out", default=None, help="JSON-lines file the record is appended to "
                                                 "(default results/piston_decay.jsonl)")
     ap.add_argument("--from-npz", default=None, help="analyse a saved run instead of simulating")

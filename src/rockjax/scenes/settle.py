@@ -12,6 +12,7 @@ water, its Params unchanged and the clock at zero.
 from __future__ import annotations
 
 import math
+from typing import Optional
 
 import jax.numpy as jnp
 
@@ -20,7 +21,8 @@ from .base import Scene
 __all__ = ["settle"]
 
 
-def settle(scene: Scene, *, t_settle: float, alpha: float = 1.0, progress: bool = False) -> Scene:
+def settle(scene: Scene, *, t_settle: float, alpha: float = 1.0,
+           progress: Optional[bool] = False) -> Scene:
     """Relax the water of ``scene`` for ``t_settle`` seconds and restart the clock.
 
     The water runs under gravity with the artificial viscosity ``alpha`` (``FluidParams.alpha``;
@@ -34,7 +36,7 @@ def settle(scene: Scene, *, t_settle: float, alpha: float = 1.0, progress: bool 
         scene: a scene with water and no DYNAMIC blocks (a moving block would not be held).
         t_settle: s, how long to relax (a few sloshing periods of the water body).
         alpha: artificial viscosity during the settling (> 0).
-        progress: show the driver's progress bar.
+        progress: show the driver's progress bar (None: when stderr is a terminal, as ``simulate``).
     Raises:
         ValueError: no water, DYNAMIC blocks, or a non-positive ``t_settle`` / ``alpha``.
     """
