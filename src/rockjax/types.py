@@ -26,6 +26,7 @@ __all__ = [
     "Viscosity",
     "WallModel",
     "DensityDiffusion",
+    "Adjoint",
     "Coupling",
     "Kind",
     "Status",
@@ -91,6 +92,17 @@ class DensityDiffusion(enum.Enum):
     #: Antuono et al. (2010) consistent delta-SPH: Molteni minus the linear part of the density
     #: difference, from renormalised density gradients (one extra neighbour pass per step)
     ANTUONO = "antuono"
+
+
+class Adjoint(enum.Enum):
+    """How reverse mode (``jax.grad``, ``jax.vjp``) goes through the WCSPH step's neighbour sums."""
+
+    #: JAX transposes every neighbour gather (a scatter-add) and keeps the per-pair intermediates;
+    #: forward mode (``jax.jvp``) works too
+    AUTODIFF = "autodiff"
+    #: a custom VJP of each pair sum by gathers over the symmetric list (``sph.pair_sum``): the
+    #: same forward, a faster reverse mode; ``jax.jvp`` through the step raises
+    PAIR_SUMS = "pair_sums"
 
 
 class Coupling(enum.Enum):
@@ -237,6 +249,8 @@ class Config:
             ~25 % slower at <= 2.7k rows). A speed setting only: the result does not depend on it
             beyond float rounding (``effective_row_tile``).
         scheme, kernel, viscosity, wall_model, density_diffusion: scheme choices.
+        adjoint: how reverse mode goes through the WCSPH pair sums (``Adjoint``): a speed setting
+            of gradients only (the forward is the same computation).
         gamma: Tait exponent (WCSPH).
         cfl: Courant number used for the host time step and the in-jit stability check.
         blocks: the static block description (``rockjax.blocks.BlockConfig``), or None for no blocks.
@@ -275,6 +289,7 @@ class Config:
     viscosity: Viscosity = Viscosity.ARTIFICIAL
     wall_model: WallModel = WallModel.ADAMI
     density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS
+    adjoint: Adjoint = Adjoint.AUTODIFF
     gamma: float = 7.0
     cfl: float = 0.25
     blocks: Optional[Any] = None

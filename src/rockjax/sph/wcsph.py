@@ -28,7 +28,8 @@ import jax.numpy as jnp
 from ..types import Config, DensityDiffusion, Kind, NeighbourList, Params, Particles, Viscosity, WallModel
 from .eos import tait_density, tait_pressure
 from .kernels import kernel_pair
-from .neighbours import Pairs, Rows, neighbour_kind, pairs, scan_rows, take, transpose_sum, wrap_positions
+from .neighbours import Pairs, Rows, neighbour_kind, pairs, safe_norm, scan_rows, take, transpose_sum, wrap_positions
+from .pair_sum import pair_sum
 from .walls import adami_finish, adami_sums, adami_terms, wall_pair_geometry
 
 __all__ = ["PairTerms", "pair_terms", "density_rate", "density_gradient", "acceleration", "pressure", "advance",
@@ -121,17 +122,19 @@ def _terms(pr: Pairs, kind, params, config, terms: Optional[PairTerms]) -> PairT
 RENORMALISATION_DET_RANGE = (0.02, 0.06)
 
 
-def _renormalised_gradient(d, w, drho):
-    """``s C^-1 b`` per row, ``b = sum_k w drho x_ji``, ``C = sum_k w x_ji (x) x_ji`` (``x_ji = -d``): [R, 3].
-
-    ``d``: three [R, K] arrays ``x_i - x_j``; ``w`` [R, K] the pair weights ``V_j (-F_ij) >= 0``
-    (zero off the pairs that count); ``drho`` [R, K] ``rho_j - rho_i``. ``s`` fades the estimate
-    out where ``C`` is poorly conditioned (``RENORMALISATION_DET_RANGE``).
-    """
+def _renormalised_terms(d, w, drho):
+    """Per-pair terms [R, K] of the renormalised gradient's sums: ``b`` (3: ``w drho x_ji``) and ``C``
+    (6: ``w x_ji (x) x_ji``, upper triangle row by row), ``x_ji = -d`` (``_renormalised_gradient``)."""
     wd = w * drho
-    b = [-jnp.sum(wd * d[a], axis=1) for a in range(3)]
-    c = {(a, bb): jnp.sum(w * d[a] * d[bb], axis=1) for a in range(3) for bb in range(a, 3)}
-    c00, c01, c02, c11, c12, c22 = c[0, 0], c[0, 1], c[0, 2], c[1, 1], c[1, 2], c[2, 2]
+    b = tuple(-(wd * d[a]) for a in range(3))
+    c = tuple(w * d[a] * d[bb] for a in range(3) for bb in range(a, 3))
+    return b + c
+
+
+def _renormalised_solve(sums):
+    """``s C^-1 b`` per row [R, 3] from the nine summed ``_renormalised_terms`` ([R] each)."""
+    b = sums[:3]
+    c00, c01, c02, c11, c12, c22 = sums[3:]
     a00 = c11 * c22 - c12 * c12
     a01 = c02 * c12 - c01 * c22
     a02 = c01 * c12 - c02 * c11
@@ -145,6 +148,16 @@ def _renormalised_gradient(d, w, drho):
     return jnp.stack([(a00 * b[0] + a01 * b[1] + a02 * b[2]) * scale,
                       (a01 * b[0] + a11 * b[1] + a12 * b[2]) * scale,
                       (a02 * b[0] + a12 * b[1] + a22 * b[2]) * scale], axis=1)
+
+
+def _renormalised_gradient(d, w, drho):
+    """``s C^-1 b`` per row, ``b = sum_k w drho x_ji``, ``C = sum_k w x_ji (x) x_ji`` (``x_ji = -d``): [R, 3].
+
+    ``d``: three [R, K] arrays ``x_i - x_j``; ``w`` [R, K] the pair weights ``V_j (-F_ij) >= 0``
+    (zero off the pairs that count); ``drho`` [R, K] ``rho_j - rho_i``. ``s`` fades the estimate
+    out where ``C`` is poorly conditioned (``RENORMALISATION_DET_RANGE``).
+    """
+    return _renormalised_solve(tuple(jnp.sum(t, axis=1) for t in _renormalised_terms(d, w, drho)))
 
 
 def _density_gradient_rows(pr: Pairs, t: PairTerms, rho, vol, params: Params):
@@ -215,6 +228,62 @@ def _diffusion_pairs(kind_j, rho_j, params: Params, config: Config):
     return kind_j == Kind.FLUID
 
 
+_V = ("v0", "v1", "v2")
+_G = ("g0", "g1", "g2")
+
+
+def _kernel_factor(d, mask, params: Params, config: Config):
+    """``(r2 [m^2], F [1/m^5])`` of pairs with separations ``d`` (three arrays): ``F = (dW/dr)/r``, zero off ``mask``."""
+    _, f_fn = kernel_pair(config.kernel)
+    r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+    return r2, jnp.where(mask, f_fn(safe_norm(r2), params.fluid.h), 0.0)
+
+
+def _continuity_pair(ri, cj, d, params: Params, mask, fluid_j, config: Config):
+    """The continuity term of pair (i, j) [R, K] kg/m^3/s: ``rho_i V_j (v_i - v_j) . grad W_ij`` plus the
+    density diffusion (a ``sph.pair_sum`` pair function).
+
+    ``ri``: the rows' ``rho`` and velocity components ``v0``-``v2`` (``g0``-``g2``, the
+    renormalised density gradient, with ``DensityDiffusion.ANTUONO``); ``cj``: the same of the
+    neighbours plus ``vol``; ``d``: ``x_i - x_j``; ``mask``: real pairs; ``fluid_j``: fluid neighbours.
+    """
+    f = params.fluid
+    _, F = _kernel_factor(d, mask, params, config)
+    rho_i, rho_j = ri["rho"], cj["rho"]
+    V_j = f.rho0 * cj["vol"] / rho_j  # neighbour volumes m^3
+    vr = sum((ri[_V[a]] - cj[_V[a]]) * d[a] for a in range(3))
+    drho = rho_i * V_j * vr * F
+    dd = config.density_diffusion
+    if dd != DensityDiffusion.NONE:
+        diff = rho_j - rho_i
+        if dd in (DensityDiffusion.FOURTAKAS, DensityDiffusion.FOURTAKAS_SURFACE):
+            g = params.gravity
+            g_dx = -(d[0] * g[0] + d[1] * g[1] + d[2] * g[2])
+            if dd == DensityDiffusion.FOURTAKAS:
+                diff = diff - hydrostatic_pair_difference(g_dx, rho_i, rho_j, params, config)
+            else:
+                diff = diff - hydrostatic_density_difference(g_dx, params, config)
+        elif dd == DensityDiffusion.ANTUONO:
+            # minus the linear part: (rho_j - rho_i) - (g_i + g_j) / 2 . x_ji, with x_ji = -d
+            diff = diff + 0.5 * sum((ri[_G[a]] + cj[_G[a]]) * d[a] for a in range(3))
+        kind_j = jnp.where(fluid_j, jnp.int32(Kind.FLUID), jnp.int32(Kind.WALL))
+        use = _diffusion_pairs(kind_j, rho_j, params, config)
+        drho = drho + jnp.where(use, (-2.0 * f.delta * f.h * f.c0) * V_j * diff * F, 0.0)
+    return (drho,)
+
+
+def _continuity_values(v, rho, vol, grad_rho, config: Config):
+    """``(row values, column values)`` of ``_continuity_pair``: dicts of [N] arrays."""
+    rows = {"rho": rho, **{_V[a]: v[:, a] for a in range(3)}}
+    if config.density_diffusion == DensityDiffusion.ANTUONO:
+        rows.update({_G[a]: grad_rho[:, a] for a in range(3)})
+    return rows, dict(rows, vol=vol)
+
+
+def _gathered(pr: Pairs, row_vals: dict, col_vals: dict):
+    return ({k: pr.rows.of(a)[:, None] for k, a in row_vals.items()}, {k: take(a, pr.idx) for k, a in col_vals.items()})
+
+
 def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params, config: Config, *,
                      wall_terms: bool = True, grad_rho=None):
     """Continuity sums of a block of rows: ``(drho/dt [R], wall terms [R, K] or None)``.
@@ -228,35 +297,16 @@ def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params,
     """
     f = params.fluid
     rows = pr.rows
-    idx, d, F, kind_j = pr.idx, pr.d, t.F, t.kind_j
-    V_j = f.rho0 * take(vol, idx) / take(rho, idx)  # neighbour volumes m^3
-    rho_i = rows.of(rho)[:, None]
-    v_i = rows.of(v)
-    vr = sum((v_i[:, a, None] - take(v[:, a], idx)) * d[a] for a in range(3))
-    drho = rho_i * V_j * vr * F
-    if config.density_diffusion != DensityDiffusion.NONE:
-        rho_j = take(rho, idx)
-        diff = rho_j - rho_i
-        dd = config.density_diffusion
-        if dd in (DensityDiffusion.FOURTAKAS, DensityDiffusion.FOURTAKAS_SURFACE):
-            g_dx = -(d[0] * params.gravity[0] + d[1] * params.gravity[1] + d[2] * params.gravity[2])
-            if dd == DensityDiffusion.FOURTAKAS:
-                diff = diff - hydrostatic_pair_difference(g_dx, rho_i, rho_j, params, config)
-            else:
-                diff = diff - hydrostatic_density_difference(g_dx, params, config)
-        elif dd == DensityDiffusion.ANTUONO:
-            # minus the linear part: (rho_j - rho_i) - (g_i + g_j) / 2 . x_ji, with x_ji = -d
-            g_i = rows.of(grad_rho)
-            diff = diff + 0.5 * sum((g_i[:, a, None] + take(grad_rho[:, a], idx)) * d[a] for a in range(3))
-        use = _diffusion_pairs(kind_j, rho_j, params, config)
-        drho = drho + jnp.where(use, (-2.0 * f.delta * f.h * f.c0) * V_j * diff * F, 0.0)
+    ri, cj = _gathered(pr, *_continuity_values(v, rho, vol, grad_rho, config))
+    (drho,) = _continuity_pair(ri, cj, pr.d, params, pr.mask, t.kind_j == Kind.FLUID, config)
     fluid = rows.of(kind) == Kind.FLUID
     wall_out = None
     if wall_terms and config.n_wall and config.wall_model == WallModel.DYNAMIC:
         # wall j: rho_j sum_i V_i (v_j - v_i) . grad_j W_ji = rho_j sum_i V_i (v_ij . x_ij) F_ij
+        vr = sum((ri[_V[a]] - cj[_V[a]]) * pr.d[a] for a in range(3))
         V_i = f.rho0 * rows.of(vol) / rows.of(rho)
-        use = pr.mask & fluid[:, None] & (kind_j == Kind.WALL)
-        wall_out = jnp.where(use, V_i[:, None] * vr * F, 0.0)
+        use = pr.mask & fluid[:, None] & (t.kind_j == Kind.WALL)
+        wall_out = jnp.where(use, V_i[:, None] * vr * t.F, 0.0)
     return jnp.where(fluid, jnp.sum(drho, axis=1), 0.0), wall_out
 
 
@@ -292,6 +342,42 @@ def _pair_force_factors(m_j, rho_i, rho_j, p_i, p_j, vij, d, r2, F, fluid_j, par
     return coef * F, m_j * 4.0 * f.nu * visc * (F * r2) / ((rho_i + rho_j) * (r2 + eta2))
 
 
+def _momentum_pair(ri, cj, d, params: Params, mask, fluid_j, config: Config):
+    """The acceleration of i due to j [R, K] m/s^2, three components: pressure gradient and viscosity
+    (``_pair_force_factors``; a ``sph.pair_sum`` pair function). ``ri``: the rows' ``rho``, ``p``
+    and ``v0``-``v2``; ``cj``: the same of the neighbours plus ``vol``; as ``_continuity_pair``."""
+    r2, F = _kernel_factor(d, mask, params, config)
+    m_j = params.fluid.rho0 * cj["vol"]
+    vij = tuple(ri[_V[a]] - cj[_V[a]] for a in range(3))
+    cf, lam = _pair_force_factors(m_j, ri["rho"], cj["rho"], ri["p"], cj["p"], vij, d, r2, F, fluid_j, params,
+                                  config)
+    if lam is None:
+        return tuple(cf * d[a] for a in range(3))
+    return tuple(cf * d[a] + lam * vij[a] for a in range(3))
+
+
+def _momentum_gradient_pair(ri, cj, d, params: Params, mask, fluid_j, config: Config):
+    """``_momentum_pair`` and then the nine ``_renormalised_terms`` of the density gradient over the
+    fluid neighbours (``_density_gradient_rows``), from the same gathers."""
+    _, F = _kernel_factor(d, mask, params, config)
+    w = jnp.where(fluid_j, -(params.fluid.rho0 * cj["vol"] / cj["rho"]) * F, 0.0)  # V_j (-F) >= 0
+    return (_momentum_pair(ri, cj, d, params, mask, fluid_j, config)
+            + _renormalised_terms(d, w, cj["rho"] - ri["rho"]))
+
+
+def _momentum_values(v, rho, p, vol):
+    """``(row values, column values)`` of ``_momentum_pair``: dicts of [N] arrays."""
+    rows = {"rho": rho, "p": p, **{_V[a]: v[:, a] for a in range(3)}}
+    return rows, dict(rows, vol=vol)
+
+
+def _momentum_finish(sums, fluid, params: Params, gradient: bool):
+    """Acceleration [R, 3] (gravity added, zero off the ``fluid`` rows) from the summed pair
+    terms, and with ``gradient`` the renormalised density gradient [R, 3] last."""
+    acc = jnp.where(fluid[:, None], jnp.stack(sums[:3], axis=1) + params.gravity, 0.0)
+    return (acc, _renormalised_solve(sums[3:])) if gradient else acc
+
+
 def _acceleration_rows(pr: Pairs, t: PairTerms, v, rho, p, vol, kind, params: Params, config: Config, *,
                        gradient: bool = False):
     """Momentum sums of a block of rows: acceleration [R, 3] m/s^2 (gravity included; zero off the fluid).
@@ -299,26 +385,10 @@ def _acceleration_rows(pr: Pairs, t: PairTerms, v, rho, p, vol, kind, params: Pa
     With ``gradient`` also returns the rows' renormalised density gradient [R, 3] last
     (``_density_gradient_rows``, from the pass's own gathers).
     """
-    f = params.fluid
-    rows = pr.rows
-    idx, d, F = pr.idx, pr.d, t.F
-    rho_i = rows.of(rho)[:, None]
-    rho_j = take(rho, idx)
-    m_j = f.rho0 * take(vol, idx)
-    v_i = rows.of(v)
-    vij = tuple(v_i[:, a, None] - take(v[:, a], idx) for a in range(3))
-    cf, lam = _pair_force_factors(m_j, rho_i, rho_j, rows.of(p)[:, None], take(p, idx), vij, d, pr.r2, F,
-                                  t.kind_j == Kind.FLUID, params, config)
-    if lam is None:
-        s = jnp.stack([jnp.sum(cf * d[a], axis=1) for a in range(3)], axis=1)
-    else:
-        s = jnp.stack([jnp.sum(cf * d[a] + lam * vij[a], axis=1) for a in range(3)], axis=1)
-    fluid = rows.of(kind) == Kind.FLUID
-    acc = jnp.where(fluid[:, None], s + params.gravity, 0.0)
-    if gradient:
-        w = jnp.where(t.kind_j == Kind.FLUID, -(m_j / rho_j) * F, 0.0)  # V_j (-F) >= 0
-        return acc, _renormalised_gradient(d, w, rho_j - rho_i)
-    return acc
+    ri, cj = _gathered(pr, *_momentum_values(v, rho, p, vol))
+    fn = _momentum_gradient_pair if gradient else _momentum_pair
+    out = fn(ri, cj, pr.d, params, pr.mask, t.kind_j == Kind.FLUID, config)
+    return _momentum_finish(tuple(jnp.sum(o, axis=1) for o in out), pr.rows.of(kind) == Kind.FLUID, params, gradient)
 
 
 def wall_pair_forces(wp, on, v, rho, p, vol, params: Params, config: Config):
@@ -416,16 +486,12 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
         _, g_f = scan_rows(gradient_pass, nf, config.effective_row_tile, None)
         grad_rho = jnp.concatenate([g_f, jnp.zeros((nw, 3), g_f.dtype)])
 
-    def continuity_pass(rows: Rows, own, carry):
-        pr = pairs(x_new, kind, nbrs.idx, config, rows=rows)
-        t = pair_terms(pr, kind, params, config)
-        drho, _ = _continuity_rows(pr, t, v_half, P.rho, P.vol, kind, params, config, wall_terms=False,
-                                   grad_rho=grad_rho)
-        rho_i = rows.of(P.rho)
-        rho_new = jnp.where(rows.of(evolving), rho_i + dt * drho, rho_i)
-        return carry, (drho, rho_new, tait_pressure(rho_new, f.rho0, f.c0, config.gamma))
-
-    _, (drho_f, rho_f, p_f) = scan_rows(continuity_pass, nf, config.effective_row_tile, None)
+    fluid_rows = fluid[:nf]
+    (drho_f,) = pair_sum(_continuity_pair, x_new, *_continuity_values(v_half, P.rho, P.vol, grad_rho, config), params,
+                         nbrs, kind, config)
+    drho_f = jnp.where(fluid_rows, drho_f, 0.0)
+    rho_f = jnp.where(evolving[:nf], P.rho[:nf] + dt * drho_f, P.rho[:nf])
+    p_f = tait_pressure(rho_f, f.rho0, f.c0, config.gamma)
     rho_w = P.rho[nf:]
     drho_w = jnp.zeros((nw,), P.rho.dtype)
     if nw:
@@ -446,13 +512,10 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
 
     antuono = _antuono(config)
 
-    def momentum_pass(rows: Rows, own, carry):
-        pr = pairs(x_new, kind, nbrs.idx, config, rows=rows)
-        t = pair_terms(pr, kind, params, config)
-        out = _acceleration_rows(pr, t, v_half, rho_new, p, P.vol, kind, params, config, gradient=antuono)
-        return carry, out if isinstance(out, tuple) else (out,)
-
-    _, out = scan_rows(momentum_pass, nf, config.effective_row_tile, None)
+    m_sums = pair_sum(_momentum_gradient_pair if antuono else _momentum_pair, x_new,
+                      *_momentum_values(v_half, rho_new, p, P.vol), params, nbrs, kind, config)
+    out = _momentum_finish(m_sums, fluid_rows, params, antuono)
+    out = out if isinstance(out, tuple) else (out,)
     a_f = out[0]
     a = jnp.concatenate([a_f, jnp.zeros((nw, 3), a_f.dtype)])
     v_new = jnp.where(fluid[:, None], v_half + 0.5 * dt * a, v_half)

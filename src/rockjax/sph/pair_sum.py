@@ -1,0 +1,157 @@
+"""Per-row sums over the neighbour list, and their reverse mode by gathers only.
+
+A WCSPH pass computes, for every fluid row i, ``out_i = sum_k fn(i, j = idx[i, k])`` over its
+listed neighbours. Reverse-mode AD of that (``Adjoint.AUTODIFF``) transposes every neighbour
+gather into a scatter-add and materialises each per-pair intermediate of the pass as an
+[n_fluid, K] array (98 of them in a step's VJP against 15 in its forward, 2026-11-27), which makes
+a step's VJP 12-15x its forward on the CPU.
+
+``Adjoint.PAIR_SUMS`` gives the pass a custom VJP that uses the list's symmetry instead (fluid j
+is listed in row i exactly when i is listed in row j; a pair that is in one list only lies beyond
+the kernel's support, where every pair term and its derivatives vanish). Given the cotangent
+``ct`` of the outputs [n_fluid, ...], in one pass over the rows again:
+
+* as the pair's i (row r = i): the VJP of ``sum_k fn(r, idx[r, k])`` with respect to r's own
+  values, its positions and the parameters (cotangent ``ct_r``);
+* as the pair's j (row r = j, fluid neighbours i = idx[r, k]): the VJP of ``fn(i, r)`` with respect
+  to r's column values and positions, with i's cotangent ``ct_i`` gathered;
+* wall (and block-particle) columns, which have no rows, over the flat (fluid, wall) pair list
+  (``NeighbourList.wall_row``), with a scatter of that short list only.
+
+Both row parts produce per-row results (no scatter, no [n, K] cotangent array written out), and
+run in the pass's row blocks (``scan_rows``). The forward is the same computation either way; it
+needs ``jax.grad``/``jax.vjp`` (reverse mode): ``jax.jvp`` through it raises, so forward mode
+needs ``Adjoint.AUTODIFF``.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import jax
+import jax.numpy as jnp
+
+from ..types import Adjoint, Config, Kind
+from .neighbours import Rows, min_image, scan_rows, take
+
+__all__ = ["pair_sum"]
+
+#: ``fn(ri, cj, d, params, mask, fluid_j, config) -> tuple of per-pair arrays``: ``ri`` a dict of the
+#: rows' values ([R, 1] or [M]), ``cj`` a dict of the neighbours' values ([R, K] or [M]), ``d`` three
+#: arrays ``x_i - x_j`` (minimum image), ``mask`` True for a real pair, ``fluid_j`` True where j is
+#: fluid. Elementwise with broadcasting; each output must vanish (with its derivatives) off ``mask``.
+PairFn = Callable
+
+#: rows per block of the reverse pass when the forward runs in one block (``Config.row_tile`` 0 or
+#: unset on a small list): its per-pair derivatives stay in cache (one WCSPH step's VJP at 2 880
+#: fluid rows, K = 120, f32, 2026-11-27: 17 ms in blocks of 64-512 rows, 34 ms of 1 024, 46 ms in one).
+BACKWARD_TILE = 256
+
+
+def _rows_of(tree, rows: Rows, expand: bool):
+    return jax.tree_util.tree_map(lambda a: rows.of(a)[:, None] if expand else rows.of(a), tree)
+
+
+def _gather(tree, idx):
+    return jax.tree_util.tree_map(lambda a: take(a, idx), tree)
+
+
+def _geometry(xs, rows: Rows, idx, kind, config: Config):
+    """``d`` (three [R, K] arrays x_row - x_nbr), ``mask`` [R, K] and ``fluid_j`` [R, K] of a row block."""
+    d = tuple(min_image(rows.of(xs[a])[:, None] - take(xs[a], idx), a, config.grid) for a in range(3))
+    mask = (idx != rows.ids()[:, None]) & (rows.of(kind)[:, None] != Kind.PAD)
+    return d, mask, idx < config.n_fluid
+
+
+def _sums(fn, config, xs, row_vals, col_vals, params, idx, kind):
+    def tile(rows: Rows, own, carry):
+        i = rows.of(idx)
+        d, mask, fluid_j = _geometry(xs, rows, i, kind, config)
+        out = fn(_rows_of(row_vals, rows, True), _gather(col_vals, i), d, params, mask, fluid_j, config)
+        return carry, tuple(jnp.sum(o, axis=1) for o in out)
+
+    return scan_rows(tile, config.n_fluid, config.effective_row_tile, None)[1]
+
+
+def _sums_fwd(fn, config, xs, row_vals, col_vals, params, idx, kind, wall):
+    return _sums(fn, config, xs, row_vals, col_vals, params, idx, kind), (xs, row_vals, col_vals, params, idx, kind, wall)
+
+
+def _sums_bwd(fn, config, res, ct):
+    xs, row_vals, col_vals, params, idx, kind, wall = res
+    nf, n = config.n_fluid, config.n_particles
+    zero = jax.tree_util.tree_map(jnp.zeros_like, params)
+    ct_pad = tuple(jnp.concatenate([c, jnp.zeros((n - nf,) + c.shape[1:], c.dtype)]) for c in ct)
+
+    def tile(rows: Rows, own, ct_params):
+        i = rows.of(idx)
+        d, mask, fluid_j = _geometry(xs, rows, i, kind, config)
+        ct_r = tuple(rows.of(c) for c in ct)
+        if own is not None:  # an overlapping last block: count its shared rows' parameters once
+            ct_r = tuple(jnp.where(own, c, 0.0) for c in ct_r)
+        cj = _gather(col_vals, i)
+
+        def as_i(ri, d, params):
+            return tuple(jnp.sum(o, axis=1) for o in fn(ri, cj, d, params, mask, fluid_j, config))
+
+        _, pull = jax.vjp(as_i, _rows_of(row_vals, rows, True), d, params)
+        ct_ri, ct_d_i, ct_p = pull(ct_r)
+        # the same pairs seen from j = this row: i = idx (fluid only: walls have no rows, no outputs)
+        on = mask & fluid_j
+        ri = _gather(row_vals, i)
+        ct_i = tuple(jnp.where(on, take(c, i), 0.0) for c in ct_pad)
+
+        def as_j(cj_own, d_ij):
+            return fn(ri, cj_own, d_ij, params, on, jnp.ones_like(on), config)
+
+        _, pull_j = jax.vjp(as_j, _rows_of(col_vals, rows, True), tuple(-c for c in d))
+        ct_cj, ct_d_j = pull_j(ct_i)
+        squeeze = lambda t: jax.tree_util.tree_map(lambda a: a[:, 0], t)  # noqa: E731
+        ct_x = jnp.stack([jnp.sum(ct_d_i[a], axis=1) - jnp.sum(ct_d_j[a], axis=1) for a in range(3)], axis=1)
+        ct_params = jax.tree_util.tree_map(jnp.add, ct_params, ct_p)
+        return ct_params, (squeeze(ct_ri), squeeze(ct_cj), ct_x)
+
+    ct_params, (ct_row, ct_col, ct_x) = scan_rows(tile, nf, config.effective_row_tile or BACKWARD_TILE, zero)
+    pad = lambda a: jnp.concatenate([a, jnp.zeros((n - nf,) + a.shape[1:], a.dtype)])  # noqa: E731
+    ct_row = jax.tree_util.tree_map(pad, ct_row)
+    ct_col = jax.tree_util.tree_map(pad, ct_col)
+    ct_x = pad(ct_x)
+    if n > nf:  # the wall columns, over the flat (fluid row, wall) list
+        row, col, count = wall
+        valid = jnp.arange(row.shape[0]) < count
+        d_w = tuple(min_image(take(xs[a], row) - take(xs[a], col), a, config.grid) for a in range(3))
+        ri_w = _gather(row_vals, row)
+        ct_w = tuple(jnp.where(valid, take(c, row), 0.0) for c in ct_pad)
+
+        def as_wall(cj_w, d_w):
+            return fn(ri_w, cj_w, d_w, params, valid, jnp.zeros_like(valid), config)
+
+        _, pull_w = jax.vjp(as_wall, _gather(col_vals, col), d_w)
+        ct_cw, ct_dw = pull_w(ct_w)
+        seg = lambda v: jax.ops.segment_sum(jnp.where(valid, v, 0.0), col, num_segments=n)  # noqa: E731
+        ct_col = jax.tree_util.tree_map(lambda a, v: a + seg(v), ct_col, ct_cw)
+        ct_x = ct_x - jnp.stack([seg(ct_dw[a]) for a in range(3)], axis=1)
+    ct_xs = tuple(ct_x[:, a] for a in range(3))
+    return ct_xs, ct_row, ct_col, ct_params, None, None, None
+
+
+_sums_custom = jax.custom_vjp(lambda fn, config, xs, row_vals, col_vals, params, idx, kind, wall:
+                              _sums(fn, config, xs, row_vals, col_vals, params, idx, kind), nondiff_argnums=(0, 1))
+_sums_custom.defvjp(_sums_fwd, _sums_bwd)
+
+
+def pair_sum(fn: PairFn, x, row_vals: dict, col_vals: dict, params, nbrs, kind, config: Config):
+    """``out_i = sum_k fn(i, idx[i, k])`` for every fluid row i: a tuple of [n_fluid] arrays.
+
+    Args:
+        fn: the pair function (``PairFn``); x: [N, 3] positions m; row_vals, col_vals: dicts of [N]
+            per-particle arrays that ``fn`` reads as the row's (``ri``) and the neighbour's
+            (``cj``) values; params: ``Params``; nbrs: the ``NeighbourList`` (``idx`` and, for
+            ``Adjoint.PAIR_SUMS``, the flat wall pairs); kind: [N] ``Kind`` codes.
+    The reverse mode is ``config.adjoint``'s (module docstring); the forward is the same.
+    """
+    xs = tuple(x[:, a] for a in range(3))
+    if config.adjoint == Adjoint.PAIR_SUMS:
+        wall = (nbrs.wall_row, nbrs.wall_col, nbrs.wall_count)
+        return _sums_custom(fn, config, xs, row_vals, col_vals, params, nbrs.idx, kind, wall)
+    return _sums(fn, config, xs, row_vals, col_vals, params, nbrs.idx, kind)
