@@ -11,6 +11,12 @@ number of steps, and ensemble throughput. JSON lines on stdout.
 2. Ensemble throughput (forward, ``rockjax.ensembles.run_ensemble``) at batch 1, 8, 64, against
    running the same members one by one with a jitted single-member rollout: scenario-steps/s.
 
+3. ``--adjoint-ab``: the checkpointed gradient of ``--base-steps`` steps under each
+   ``Config.adjoint`` (``AUTODIFF``: JAX transposes the neighbour gathers; ``PAIR_SUMS``: the
+   gather-only custom VJP of ``rockjax.sph.pair_sum``), each with the forward in one block
+   (``row_tile`` 0) and in blocks of 512 rows, compiled in one process and timed alternately
+   (``--repeats`` rounds; medians): the ratios hold on a shared machine.
+
 Scenes (``--scene``): ``dam`` (default: a 0.3 x 0.3 x 0.5 m dam break at dx = 0.05 m, fluid
 only; ``--dx 0.025``: 2 880 fluid), ``incline`` (blocks only), ``wedge`` (coupled, dx = 0.05 m).
 ``--f64`` for float64.
@@ -25,6 +31,8 @@ import json
 import math
 import statistics
 import time
+
+from rockjax.types import Adjoint
 
 
 def build(name: str, dx: float = 0.05):
@@ -125,6 +133,47 @@ def step_vjp(config, state, params, repeats: int) -> dict:
     return out
 
 
+def adjoint_ab(scene, steps: int, repeats: int) -> list[dict]:
+    """Forward and checkpointed-gradient times of ``steps`` steps per (adjoint, row_tile), interleaved."""
+    import jax
+
+    from rockjax import prime
+    from rockjax.calibrate import observed
+
+    obj = objective(scene)
+    variants = [(a, t) for t in (0, 512) for a in Adjoint]
+    fns = {}
+    for adjoint, tile in variants:
+        config = scene.config.replace(adjoint=adjoint, row_tile=tile)
+        state0 = jax.jit(prime, static_argnums=2)(scene.state, scene.params, config)
+
+        def fwd(p, config=config, state0=state0):
+            return obj(observed(config, p, steps, None, state=state0, checkpoint=False, prime=False)[0], p)
+
+        def loss(p, config=config, state0=state0):
+            return obj(observed(config, p, steps, None, state=state0, checkpoint=True, prime=False)[0], p)
+
+        fns[adjoint, tile] = [jax.jit(fwd).lower(scene.params).compile(),
+                              jax.jit(jax.grad(loss)).lower(scene.params).compile()]
+        for f in fns[adjoint, tile]:
+            jax.block_until_ready(f(scene.params))
+    times = {v: ([], []) for v in variants}
+    for _ in range(repeats):
+        for v in variants:
+            for k, f in enumerate(fns[v]):
+                t = time.perf_counter()
+                jax.block_until_ready(f(scene.params))
+                times[v][k].append(time.perf_counter() - t)
+    best_fwd = min(statistics.median(times[v][0]) for v in variants)
+    out = []
+    for adjoint, tile in variants:
+        f, g = (statistics.median(x) for x in times[adjoint, tile])
+        out.append(dict(bench="adjoint_ab", adjoint=adjoint.value, row_tile=tile, steps=steps, repeats=repeats,
+                        forward_s=f, grad_s=g, grad_over_forward=g / f, grad_over_best_forward=g / best_fwd,
+                        date=time.strftime("%Y-%m-%d")))
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="dam", choices=["dam", "incline", "wedge"])
@@ -134,6 +183,8 @@ def main(argv=None):
     ap.add_argument("--ensemble-steps", type=int, default=None, help="steps per member (default T)")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--f64", action="store_true")
+    ap.add_argument("--adjoint", default=None, choices=[a.value for a in Adjoint],
+                    help="Config.adjoint: how reverse mode goes through the WCSPH pair sums (default: the scene's)")
     ap.add_argument("--dx", type=float, default=0.05, help="particle spacing of the dam scene m (0.05: 360 fluid)")
     ap.add_argument("--skip-grad", action="store_true")
     ap.add_argument("--skip-ensemble", action="store_true")
@@ -143,6 +194,8 @@ def main(argv=None):
     ap.add_argument("--step-vjp", action="store_true",
                     help="only the per-step probe: one step's forward and vector-Jacobian product (time, and the "
                          "[n_fluid, K] arrays and scatter-adds of the compiled programs)")
+    ap.add_argument("--adjoint-ab", action="store_true",
+                    help="only the interleaved A/B of Config.adjoint x row_tile (0, 512) at --base-steps steps")
     ap.add_argument("--time-plain", action="store_true",
                     help="also time the un-checkpointed gradient (memory grows like T)")
     args = ap.parse_args(argv)
@@ -158,16 +211,23 @@ def main(argv=None):
     from rockjax.rollout import default_chunk
 
     scene = build(args.scene, args.dx)
+    if args.adjoint:
+        scene = scene.replace(config=scene.config.replace(adjoint=Adjoint(args.adjoint)))
     config = scene.config
     k = config.rebuild_every
     T = args.base_steps or 2 * k
     obj = objective(scene)
     base = dict(scene=args.scene, n_fluid=config.n_fluid, n_wall=config.n_wall,
                 n_blocks=(config.blocks.n_blocks if config.blocks else 0), dtype="f64" if args.f64 else "f32",
+                adjoint=config.effective_adjoint.value,
                 dt=config.dt, rebuild_every=k, device=str(jax.devices()[0].platform))
     state0 = jax.jit(prime, static_argnums=2)(scene.state, scene.params, config)
     if args.step_vjp:
         print(json.dumps(dict(base, **step_vjp(config, state0, scene.params, args.repeats))), flush=True)
+        return
+    if args.adjoint_ab:
+        for rec in adjoint_ab(scene, T, args.repeats):
+            print(json.dumps(dict(base, **rec)), flush=True)
         return
 
     if not args.skip_grad:

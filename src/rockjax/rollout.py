@@ -4,7 +4,8 @@ This module owns the differentiable time loop. A *block* is: rebuild the neighbo
 (re-sorting the particles; built under ``stop_gradient`` in ``sph.neighbours``), then
 ``config.rebuild_every`` steps with that list. ``make_rollout(config, n_blocks)`` advances
 ``n_blocks`` blocks, i.e. ``n_blocks * config.rebuild_every`` steps. Trip counts are fixed
-(``lax.scan`` only, no ``while_loop``), so ``jax.grad``, ``jax.jvp`` and ``jax.vmap`` go through.
+(``lax.scan`` only, no ``while_loop``), so ``jax.grad``, ``jax.jvp`` and ``jax.vmap`` go through
+(``jax.jvp`` where the WCSPH pair sums use ``Adjoint.AUTODIFF``: ``Config.effective_adjoint``).
 
 Displacement-triggered rebuilds (``rebuild_on_displacement=True``, the default): before each step
 of a block the list is also rebuilt (``lax.cond``) when the positions that step will produce,

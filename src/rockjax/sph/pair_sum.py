@@ -148,10 +148,10 @@ def pair_sum(fn: PairFn, x, row_vals: dict, col_vals: dict, params, nbrs, kind, 
             per-particle arrays that ``fn`` reads as the row's (``ri``) and the neighbour's
             (``cj``) values; params: ``Params``; nbrs: the ``NeighbourList`` (``idx`` and, for
             ``Adjoint.PAIR_SUMS``, the flat wall pairs); kind: [N] ``Kind`` codes.
-    The reverse mode is ``config.adjoint``'s (module docstring); the forward is the same.
+    The reverse mode is ``config.effective_adjoint``'s (module docstring); the forward is the same.
     """
     xs = tuple(x[:, a] for a in range(3))
-    if config.adjoint == Adjoint.PAIR_SUMS:
+    if config.effective_adjoint == Adjoint.PAIR_SUMS:
         wall = (nbrs.wall_row, nbrs.wall_col, nbrs.wall_count)
         return _sums_custom(fn, config, xs, row_vals, col_vals, params, nbrs.idx, kind, wall)
     return _sums(fn, config, xs, row_vals, col_vals, params, nbrs.idx, kind)
