@@ -254,7 +254,7 @@ class Config:
             ``PAIR_SUMS`` when the pair sums run in row blocks (``effective_row_tile`` > 0, large
             lists), else ``AUTODIFF`` (``effective_adjoint``; measured 2026-11-26, 32-step
             checkpointed dam-break gradients, f32: at 8.4k and 23k water particles ``PAIR_SUMS``
-            1.4-1.5x faster, at 2.9k (one block) ``AUTODIFF`` 1.15x faster). Forward mode
+            1.4-1.6x faster, at 2.9k (one block) ``AUTODIFF`` 1.2x faster). Forward mode
             (``jax.jvp``) through a step needs ``AUTODIFF``.
         gamma: Tait exponent (WCSPH).
         cfl: Courant number used for the host time step and the in-jit stability check.

@@ -3,7 +3,7 @@
 A WCSPH pass computes, for every fluid row i, ``out_i = sum_k fn(i, j = idx[i, k])`` over its
 listed neighbours. Reverse-mode AD of that (``Adjoint.AUTODIFF``) transposes every neighbour
 gather into a scatter-add and materialises each per-pair intermediate of the pass as an
-[n_fluid, K] array (98 of them in a step's VJP against 15 in its forward, 2026-11-27), which makes
+[n_fluid, K] array (98 of them in a step's VJP against 15 in its forward, 2026-11-26), which makes
 a step's VJP 12-15x its forward on the CPU.
 
 ``Adjoint.PAIR_SUMS`` gives the pass a custom VJP that uses the list's symmetry instead (fluid j
@@ -19,9 +19,18 @@ the kernel's support, where every pair term and its derivatives vanish). Given t
   (``NeighbourList.wall_row``), with a scatter of that short list only.
 
 Both row parts produce per-row results (no scatter, no [n, K] cotangent array written out), and
-run in the pass's row blocks (``scan_rows``). The forward is the same computation either way; it
-needs ``jax.grad``/``jax.vjp`` (reverse mode): ``jax.jvp`` through it raises, so forward mode
-needs ``Adjoint.AUTODIFF``.
+run in row blocks (``scan_rows``). The forward is the same computation either way; the custom
+VJP serves reverse mode only (``jax.grad``, ``jax.vjp``): ``jax.jvp`` through it raises, so
+forward mode needs ``Adjoint.AUTODIFF``.
+
+Measured (2026-11-26, f32, 2 CPU cores; ``experiments/bench_grad.py --adjoint-ab``: 32-step
+checkpointed dam-break gradients, interleaved in one process): where the forward runs in blocks of
+512 rows (lists over 2^19 slots) the gradient costs 6.8-6.9 forwards with ``PAIR_SUMS`` against
+9.7 (8.4k water particles) and 11.0 (23k) with ``AUTODIFF``; at 2.9k, in one block, ``AUTODIFF``
+is the faster (6.9 vs 8.4), as a standalone step's VJP would not suggest (17 vs 27 ms): inside
+the rollout's scan XLA runs JAX's transposed pass faster than alone, and this VJP's row blocks add
+~4x the operations (``jax.profiler``: 510k vs 112k per 64-step gradient, the same thread time).
+Hence ``Config.adjoint``'s default (``effective_adjoint``).
 """
 
 from __future__ import annotations
@@ -44,7 +53,7 @@ PairFn = Callable
 
 #: rows per block of the reverse pass when the forward runs in one block (``Config.row_tile`` 0 or
 #: unset on a small list): its per-pair derivatives stay in cache (one WCSPH step's VJP at 2 880
-#: fluid rows, K = 120, f32, 2026-11-27: 17 ms in blocks of 64-512 rows, 34 ms of 1 024, 46 ms in one).
+#: fluid rows, K = 120, f32, 2026-11-26: 17 ms in blocks of 64-512 rows, 34 ms of 1 024, 46 ms in one).
 BACKWARD_TILE = 256
 
 
