@@ -12,8 +12,10 @@
 * velocity Verlet (kick-drift-kick) with one force evaluation per step; the density is advanced
   like the positions, with the mid-step velocities (``advance``).
 
-Speed: a step computes the pair geometry, the kernel-gradient factor and the neighbour kinds once
-(``PairTerms``) and shares them between the continuity sum, the wall pressure and the momentum sum.
+Speed: ``prime`` and the public sums compute the pair geometry, the kernel-gradient factor and the
+neighbour kinds once (``PairTerms``) and share them. A step's two passes (continuity, momentum)
+are pair functions (``_continuity_pair``, ``_momentum_pair``) summed over the rows by
+``sph.pair_sum``, whose reverse mode ``Config.adjoint`` chooses (JAX's, or a gather-only VJP).
 
 All physical constants come from ``Params`` so gradients reach them.
 """
@@ -458,7 +460,7 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     O(dt) lag in an O(h^2) term -- and the momentum pass computes the next ones from its own
     gathers (no extra pass; an unprimed state without them gets an extra gradient pass).
 
-    Two passes over the rows' pairs, each in blocks of ``config.effective_row_tile`` rows (``scan_rows``;
+    Two passes over the rows' pairs (``pair_sum``), each in blocks of ``config.effective_row_tile`` rows (``scan_rows``;
     the pair geometry is recomputed in the second pass rather than stored, since a stored [n, K]
     array costs more memory traffic than its arithmetic): (1) continuity, then each row's new
     density and pressure; (2) the momentum sum. Between them, the walls' sums (Adami pressure or
