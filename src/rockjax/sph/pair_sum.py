@@ -41,9 +41,10 @@ import jax
 import jax.numpy as jnp
 
 from ..types import Adjoint, Config, Kind
-from .neighbours import Rows, min_image, scan_rows, take
+from .neighbours import Pairs, Rows, neighbour_kind, pairs, scan_rows, take
+from .walls import wall_pair_geometry
 
-__all__ = ["pair_sum"]
+__all__ = ["pair_sum", "gathered"]
 
 #: ``fn(ri, cj, d, params, mask, fluid_j, config) -> tuple of per-pair arrays``: ``ri`` a dict of the
 #: rows' values ([R, 1] or [M]), ``cj`` a dict of the neighbours' values ([R, K] or [M]), ``d`` three
@@ -57,63 +58,56 @@ PairFn = Callable
 BACKWARD_TILE = 256
 
 
-def _rows_of(tree, rows: Rows, expand: bool):
-    return jax.tree_util.tree_map(lambda a: rows.of(a)[:, None] if expand else rows.of(a), tree)
+def gathered(pr: Pairs, row_vals: dict, col_vals: dict):
+    """``(ri, cj)`` of a row block: the rows' ``row_vals`` [R, 1] and their neighbours' ``col_vals`` [R, K]."""
+    return ({k: pr.rows.of(a)[:, None] for k, a in row_vals.items()}, {k: take(a, pr.idx) for k, a in col_vals.items()})
 
 
-def _gather(tree, idx):
-    return jax.tree_util.tree_map(lambda a: take(a, idx), tree)
+def _fluid_j(pr: Pairs, config: Config):
+    return neighbour_kind(pr.idx, config) == Kind.FLUID
 
 
-def _geometry(xs, rows: Rows, idx, kind, config: Config):
-    """``d`` (three [R, K] arrays x_row - x_nbr), ``mask`` [R, K] and ``fluid_j`` [R, K] of a row block."""
-    d = tuple(min_image(rows.of(xs[a])[:, None] - take(xs[a], idx), a, config.grid) for a in range(3))
-    mask = (idx != rows.ids()[:, None]) & (rows.of(kind)[:, None] != Kind.PAD)
-    return d, mask, idx < config.n_fluid
-
-
-def _sums(fn, config, xs, row_vals, col_vals, params, idx, kind):
+def _sums(fn, config, x, row_vals, col_vals, params, nbrs, kind):
     def tile(rows: Rows, own, carry):
-        i = rows.of(idx)
-        d, mask, fluid_j = _geometry(xs, rows, i, kind, config)
-        out = fn(_rows_of(row_vals, rows, True), _gather(col_vals, i), d, params, mask, fluid_j, config)
+        pr = pairs(x, kind, nbrs.idx, config, rows=rows)
+        out = fn(*gathered(pr, row_vals, col_vals), pr.d, params, pr.mask, _fluid_j(pr, config), config)
         return carry, tuple(jnp.sum(o, axis=1) for o in out)
 
     return scan_rows(tile, config.n_fluid, config.effective_row_tile, None)[1]
 
 
-def _sums_fwd(fn, config, xs, row_vals, col_vals, params, idx, kind, wall):
-    return _sums(fn, config, xs, row_vals, col_vals, params, idx, kind), (xs, row_vals, col_vals, params, idx, kind, wall)
+def _sums_fwd(fn, config, x, row_vals, col_vals, params, nbrs, kind):
+    return _sums(fn, config, x, row_vals, col_vals, params, nbrs, kind), (x, row_vals, col_vals, params, nbrs, kind)
 
 
 def _sums_bwd(fn, config, res, ct):
-    xs, row_vals, col_vals, params, idx, kind, wall = res
+    x, row_vals, col_vals, params, nbrs, kind = res
     nf, n = config.n_fluid, config.n_particles
     zero = jax.tree_util.tree_map(jnp.zeros_like, params)
     ct_pad = tuple(jnp.concatenate([c, jnp.zeros((n - nf,) + c.shape[1:], c.dtype)]) for c in ct)
 
     def tile(rows: Rows, own, ct_params):
-        i = rows.of(idx)
-        d, mask, fluid_j = _geometry(xs, rows, i, kind, config)
+        pr = pairs(x, kind, nbrs.idx, config, rows=rows)
+        d, mask, fluid_j = pr.d, pr.mask, _fluid_j(pr, config)
         ct_r = tuple(rows.of(c) for c in ct)
         if own is not None:  # an overlapping last block: count its shared rows' parameters once
             ct_r = tuple(jnp.where(own, c, 0.0) for c in ct_r)
-        cj = _gather(col_vals, i)
+        ri_own, cj = gathered(pr, row_vals, col_vals)
 
         def as_i(ri, d, params):
             return tuple(jnp.sum(o, axis=1) for o in fn(ri, cj, d, params, mask, fluid_j, config))
 
-        _, pull = jax.vjp(as_i, _rows_of(row_vals, rows, True), d, params)
+        _, pull = jax.vjp(as_i, ri_own, d, params)
         ct_ri, ct_d_i, ct_p = pull(ct_r)
         # the same pairs seen from j = this row: i = idx (fluid only: walls have no rows, no outputs)
         on = mask & fluid_j
-        ri = _gather(row_vals, i)
-        ct_i = tuple(jnp.where(on, take(c, i), 0.0) for c in ct_pad)
+        cj_own, ri = gathered(pr, col_vals, row_vals)  # this row's column values, the neighbours' row values
+        ct_i = tuple(jnp.where(on, take(c, pr.idx), 0.0) for c in ct_pad)
 
         def as_j(cj_own, d_ij):
             return fn(ri, cj_own, d_ij, params, on, jnp.ones_like(on), config)
 
-        _, pull_j = jax.vjp(as_j, _rows_of(col_vals, rows, True), tuple(-c for c in d))
+        _, pull_j = jax.vjp(as_j, cj_own, tuple(-c for c in d))
         ct_cj, ct_d_j = pull_j(ct_i)
         squeeze = lambda t: jax.tree_util.tree_map(lambda a: a[:, 0], t)  # noqa: E731
         ct_x = jnp.stack([jnp.sum(ct_d_i[a], axis=1) - jnp.sum(ct_d_j[a], axis=1) for a in range(3)], axis=1)
@@ -126,26 +120,23 @@ def _sums_bwd(fn, config, res, ct):
     ct_col = jax.tree_util.tree_map(pad, ct_col)
     ct_x = pad(ct_x)
     if n > nf:  # the wall columns, over the flat (fluid row, wall) list
-        row, col, count = wall
-        valid = jnp.arange(row.shape[0]) < count
-        d_w = tuple(min_image(take(xs[a], row) - take(xs[a], col), a, config.grid) for a in range(3))
-        ri_w = _gather(row_vals, row)
+        wp = wall_pair_geometry(x, nbrs, config.grid)
+        row, col, valid = wp.row, wp.col, wp.valid
+        ri_w = {k: take(a, row) for k, a in row_vals.items()}
         ct_w = tuple(jnp.where(valid, take(c, row), 0.0) for c in ct_pad)
 
         def as_wall(cj_w, d_w):
             return fn(ri_w, cj_w, d_w, params, valid, jnp.zeros_like(valid), config)
 
-        _, pull_w = jax.vjp(as_wall, _gather(col_vals, col), d_w)
+        _, pull_w = jax.vjp(as_wall, {k: take(a, col) for k, a in col_vals.items()}, wp.d)
         ct_cw, ct_dw = pull_w(ct_w)
         seg = lambda v: jax.ops.segment_sum(jnp.where(valid, v, 0.0), col, num_segments=n)  # noqa: E731
         ct_col = jax.tree_util.tree_map(lambda a, v: a + seg(v), ct_col, ct_cw)
         ct_x = ct_x - jnp.stack([seg(ct_dw[a]) for a in range(3)], axis=1)
-    ct_xs = tuple(ct_x[:, a] for a in range(3))
-    return ct_xs, ct_row, ct_col, ct_params, None, None, None
+    return ct_x, ct_row, ct_col, ct_params, None, None
 
 
-_sums_custom = jax.custom_vjp(lambda fn, config, xs, row_vals, col_vals, params, idx, kind, wall:
-                              _sums(fn, config, xs, row_vals, col_vals, params, idx, kind), nondiff_argnums=(0, 1))
+_sums_custom = jax.custom_vjp(_sums, nondiff_argnums=(0, 1))
 _sums_custom.defvjp(_sums_fwd, _sums_bwd)
 
 
@@ -159,8 +150,5 @@ def pair_sum(fn: PairFn, x, row_vals: dict, col_vals: dict, params, nbrs, kind, 
             ``Adjoint.PAIR_SUMS``, the flat wall pairs); kind: [N] ``Kind`` codes.
     The reverse mode is ``config.effective_adjoint``'s (module docstring); the forward is the same.
     """
-    xs = tuple(x[:, a] for a in range(3))
-    if config.effective_adjoint == Adjoint.PAIR_SUMS:
-        wall = (nbrs.wall_row, nbrs.wall_col, nbrs.wall_count)
-        return _sums_custom(fn, config, xs, row_vals, col_vals, params, nbrs.idx, kind, wall)
-    return _sums(fn, config, xs, row_vals, col_vals, params, nbrs.idx, kind)
+    sums = _sums_custom if config.effective_adjoint == Adjoint.PAIR_SUMS else _sums
+    return sums(fn, config, x, row_vals, col_vals, params, nbrs, kind)

@@ -31,7 +31,7 @@ from ..types import Config, DensityDiffusion, Kind, NeighbourList, Params, Parti
 from .eos import tait_density, tait_pressure
 from .kernels import kernel_pair
 from .neighbours import Pairs, Rows, neighbour_kind, pairs, safe_norm, scan_rows, take, transpose_sum, wrap_positions
-from .pair_sum import pair_sum
+from .pair_sum import gathered, pair_sum
 from .walls import adami_finish, adami_sums, adami_terms, wall_pair_geometry
 
 __all__ = ["PairTerms", "pair_terms", "density_rate", "density_gradient", "acceleration", "pressure", "advance",
@@ -282,10 +282,6 @@ def _continuity_values(v, rho, vol, grad_rho, config: Config):
     return rows, dict(rows, vol=vol)
 
 
-def _gathered(pr: Pairs, row_vals: dict, col_vals: dict):
-    return ({k: pr.rows.of(a)[:, None] for k, a in row_vals.items()}, {k: take(a, pr.idx) for k, a in col_vals.items()})
-
-
 def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params, config: Config, *,
                      wall_terms: bool = True, grad_rho=None):
     """Continuity sums of a block of rows: ``(drho/dt [R], wall terms [R, K] or None)``.
@@ -299,7 +295,7 @@ def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params,
     """
     f = params.fluid
     rows = pr.rows
-    ri, cj = _gathered(pr, *_continuity_values(v, rho, vol, grad_rho, config))
+    ri, cj = gathered(pr, *_continuity_values(v, rho, vol, grad_rho, config))
     (drho,) = _continuity_pair(ri, cj, pr.d, params, pr.mask, t.kind_j == Kind.FLUID, config)
     fluid = rows.of(kind) == Kind.FLUID
     wall_out = None
@@ -387,7 +383,7 @@ def _acceleration_rows(pr: Pairs, t: PairTerms, v, rho, p, vol, kind, params: Pa
     With ``gradient`` also returns the rows' renormalised density gradient [R, 3] last
     (``_density_gradient_rows``, from the pass's own gathers).
     """
-    ri, cj = _gathered(pr, *_momentum_values(v, rho, p, vol))
+    ri, cj = gathered(pr, *_momentum_values(v, rho, p, vol))
     fn = _momentum_gradient_pair if gradient else _momentum_pair
     out = fn(ri, cj, pr.d, params, pr.mask, t.kind_j == Kind.FLUID, config)
     return _momentum_finish(tuple(jnp.sum(o, axis=1) for o in out), pr.rows.of(kind) == Kind.FLUID, params, gradient)
