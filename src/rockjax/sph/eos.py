@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-__all__ = ["tait_pressure", "tait_density", "linear_pressure", "linear_density"]
+__all__ = ["tait_pressure", "tait_density", "hydrostatic_power", "linear_pressure", "linear_density"]
 
 
 def tait_pressure(rho, rho0, c0, gamma):
@@ -22,6 +22,14 @@ def tait_density(p, rho0, c0, gamma):
     B = rho0 * c0**2 / gamma
     ratio = jnp.maximum(p / B, -0.5)
     return rho0 * jnp.exp(jnp.log1p(ratio) / gamma)
+
+
+def hydrostatic_power(e, gamma):
+    """``(1 + e)^(2 - gamma)`` as a 3-term series in ``e = rho / rho0 - 1`` (relative error
+    ``35 |e|^3`` for gamma = 7): the Tait ``rho / c(rho)^2`` relative to its rest value, used by
+    ``wcsph.hydrostatic_pair_difference``."""
+    s = 2.0 - gamma
+    return 1.0 + s * e * (1.0 + 0.5 * (s - 1.0) * e * (1.0 + (s - 2.0) / 3.0 * e))
 
 
 def linear_pressure(rho, rho0, c0):

@@ -44,7 +44,7 @@ from ..types import Adjoint, Config, Kind
 from .neighbours import Pairs, Rows, neighbour_kind, pairs, scan_rows, take
 from .walls import wall_pair_geometry
 
-__all__ = ["pair_sum", "gathered"]
+__all__ = ["pair_sum", "gathered", "with_pullback"]
 
 #: ``fn(ri, cj, d, params, mask, fluid_j, config) -> tuple of per-pair arrays``: ``ri`` a dict of the
 #: rows' values ([R, 1] or [M]), ``cj`` a dict of the neighbours' values ([R, K] or [M]), ``d`` three
@@ -67,7 +67,7 @@ def _fluid_j(pr: Pairs, config: Config):
     return neighbour_kind(pr.idx, config) == Kind.FLUID
 
 
-def _sums(fn, config, x, row_vals, col_vals, params, nbrs, kind):
+def _sums(fn, config, shared, x, row_vals, col_vals, params, nbrs, kind):
     def tile(rows: Rows, own, carry):
         pr = pairs(x, kind, nbrs.idx, config, rows=rows)
         out = fn(*gathered(pr, row_vals, col_vals), pr.d, params, pr.mask, _fluid_j(pr, config), config)
@@ -76,19 +76,42 @@ def _sums(fn, config, x, row_vals, col_vals, params, nbrs, kind):
     return scan_rows(tile, config.n_fluid, config.effective_row_tile, None)[1]
 
 
-def _sums_fwd(fn, config, x, row_vals, col_vals, params, nbrs, kind):
-    return _sums(fn, config, x, row_vals, col_vals, params, nbrs, kind), (x, row_vals, col_vals, params, nbrs, kind)
+def _sums_fwd(fn, config, shared, x, row_vals, col_vals, params, nbrs, kind):
+    out = _sums(fn, config, shared, x, row_vals, col_vals, params, nbrs, kind)
+    return out, (x, row_vals, col_vals, params, nbrs, kind)
 
 
-def _sums_bwd(fn, config, res, ct):
+def _symmetric(pr: Pairs, own, fluid_j, pullback, x, col_vals, params, ct, ct_pad, config):
+    """Row block ``pr``'s cotangents from both ends of its pairs by the hand-derived ``pullback``
+    (``sph.pullbacks``): ``(ct_params, ct_row_values [R] dict, ct_x [R, 3])``."""
+    rows = pr.rows
+    on = pr.mask & fluid_j
+    own_v, nb_v = gathered(pr, col_vals, col_vals)
+    g_r = tuple(rows.of(c)[:, None] for c in ct)
+    g_j = tuple(jnp.where(on, take(c, pr.idx), 0.0) for c in ct_pad)
+    g_p = g_r if own is None else tuple(jnp.where(own[:, None], c, 0.0) for c in g_r)
+    ct_own, ct_d, ct_params = pullback(own_v, nb_v, pr.d, pr.r, params, pr.mask, fluid_j, g_r, g_j, g_p)
+    ct_vals = {k: jnp.sum(jnp.broadcast_to(ct_own[k], pr.mask.shape), axis=1) if k in ct_own
+               else jnp.zeros((rows.size,), col_vals[k].dtype) for k in col_vals}
+    return ct_params, ct_vals, jnp.stack([jnp.sum(c, axis=1) for c in ct_d], axis=1)
+
+
+def _sums_bwd(fn, config, shared, res, ct):
     x, row_vals, col_vals, params, nbrs, kind = res
     nf, n = config.n_fluid, config.n_particles
     zero = jax.tree_util.tree_map(jnp.zeros_like, params)
     ct_pad = tuple(jnp.concatenate([c, jnp.zeros((n - nf,) + c.shape[1:], c.dtype)]) for c in ct)
 
+    pullback = getattr(fn, "symmetric_pullback", None) if shared else None
+    pullback = pullback(config) if pullback is not None else None
+
     def tile(rows: Rows, own, ct_params):
         pr = pairs(x, kind, nbrs.idx, config, rows=rows)
         d, mask, fluid_j = pr.d, pr.mask, _fluid_j(pr, config)
+        if pullback is not None:  # both ends at once; row and column values are the same arrays
+            ct_p, ct_vals, ct_x = _symmetric(pr, own, fluid_j, pullback, x, col_vals, params, ct, ct_pad, config)
+            ct_row = {k: jnp.zeros((rows.size,), a.dtype) for k, a in row_vals.items()}
+            return jax.tree_util.tree_map(jnp.add, ct_params, ct_p), (ct_row, ct_vals, ct_x)
         ct_r = tuple(rows.of(c) for c in ct)
         if own is not None:  # an overlapping last block: count its shared rows' parameters once
             ct_r = tuple(jnp.where(own, c, 0.0) for c in ct_r)
@@ -136,7 +159,7 @@ def _sums_bwd(fn, config, res, ct):
     return ct_x, ct_row, ct_col, ct_params, None, None
 
 
-_sums_custom = jax.custom_vjp(_sums, nondiff_argnums=(0, 1))
+_sums_custom = jax.custom_vjp(_sums, nondiff_argnums=(0, 1, 2))
 _sums_custom.defvjp(_sums_fwd, _sums_bwd)
 
 
@@ -151,4 +174,17 @@ def pair_sum(fn: PairFn, x, row_vals: dict, col_vals: dict, params, nbrs, kind, 
     The reverse mode is ``config.effective_adjoint``'s (module docstring); the forward is the same.
     """
     sums = _sums_custom if config.effective_adjoint == Adjoint.PAIR_SUMS else _sums
-    return sums(fn, config, x, row_vals, col_vals, params, nbrs, kind)
+    shared = all(k in col_vals and col_vals[k] is a for k, a in row_vals.items())
+    return sums(fn, config, shared, x, row_vals, col_vals, params, nbrs, kind)
+
+
+def with_pullback(factory: Callable):
+    """Give a pair function a hand-derived reverse mode for both ends of a pair (``sph.pullbacks``):
+    ``factory(config)`` returns the pullback, or None where it does not cover the configuration.
+    ``Adjoint.PAIR_SUMS`` uses it when every row value is also passed, as the same array, as a
+    column value (then the pair's two ends read the same quantities)."""
+    def attach(fn):
+        fn.symmetric_pullback = factory
+        return fn
+
+    return attach

@@ -28,10 +28,11 @@ import jax
 import jax.numpy as jnp
 
 from ..types import Config, DensityDiffusion, Kind, NeighbourList, Params, Particles, Viscosity, WallModel
-from .eos import tait_density, tait_pressure
+from . import pullbacks
+from .eos import hydrostatic_power, tait_density, tait_pressure
 from .kernels import kernel_pair
 from .neighbours import Pairs, Rows, neighbour_kind, pairs, safe_norm, scan_rows, take, transpose_sum, wrap_positions
-from .pair_sum import gathered, pair_sum
+from .pair_sum import gathered, pair_sum, with_pullback
 from .walls import adami_finish, adami_sums, adami_terms, wall_pair_geometry
 
 __all__ = ["PairTerms", "pair_terms", "density_rate", "density_gradient", "acceleration", "pressure", "advance",
@@ -101,8 +102,7 @@ def hydrostatic_pair_difference(g_dx, rho_i, rho_j, params: Params, config: Conf
     """
     f = params.fluid
     e = 0.5 * (rho_i + rho_j) / f.rho0 - 1.0
-    s = 2.0 - config.gamma
-    return f.rho0 * g_dx / f.c0**2 * (1.0 + s * e * (1.0 + 0.5 * (s - 1.0) * e * (1.0 + (s - 2.0) / 3.0 * e)))
+    return f.rho0 * g_dx / f.c0**2 * hydrostatic_power(e, config.gamma)
 
 
 def _antuono(config: Config) -> bool:
@@ -241,6 +241,7 @@ def _kernel_factor(d, mask, params: Params, config: Config):
     return r2, jnp.where(mask, f_fn(safe_norm(r2), params.fluid.h), 0.0)
 
 
+@with_pullback(pullbacks.continuity)
 def _continuity_pair(ri, cj, d, params: Params, mask, fluid_j, config: Config):
     """The continuity term of pair (i, j) [R, K] kg/m^3/s: ``rho_i V_j (v_i - v_j) . grad W_ij`` plus the
     density diffusion (a ``sph.pair_sum`` pair function).
@@ -340,6 +341,7 @@ def _pair_force_factors(m_j, rho_i, rho_j, p_i, p_j, vij, d, r2, F, fluid_j, par
     return coef * F, m_j * 4.0 * f.nu * visc * (F * r2) / ((rho_i + rho_j) * (r2 + eta2))
 
 
+@with_pullback(pullbacks.momentum)
 def _momentum_pair(ri, cj, d, params: Params, mask, fluid_j, config: Config):
     """The acceleration of i due to j [R, K] m/s^2, three components: pressure gradient and viscosity
     (``_pair_force_factors``; a ``sph.pair_sum`` pair function). ``ri``: the rows' ``rho``, ``p``
