@@ -13,8 +13,9 @@ number of steps, and ensemble throughput. JSON lines on stdout.
 
 3. ``--adjoint-ab``: the checkpointed gradient of ``--base-steps`` steps under each
    ``Config.adjoint`` (``AUTODIFF``: JAX transposes the neighbour gathers; ``PAIR_SUMS``: the
-   gather-only custom VJP of ``rockjax.sph.pair_sum``), each with the forward in one block
-   (``row_tile`` 0) and in blocks of 512 rows, compiled in one process and timed alternately
+   gather-only custom VJP of ``rockjax.sph.pair_sum``, with the hand-derived pullbacks of
+   ``rockjax.sph.pullbacks`` and with JAX's VJP of each pair function), each with the forward in
+   one block (``row_tile`` 0) and in blocks of 512 rows (``--ab-tiles``), compiled in one process and timed alternately
    (``--repeats`` rounds; medians): the ratios hold on a shared machine.
 
 Scenes (``--scene``): ``dam`` (default: a 0.3 x 0.3 x 0.5 m dam break at dx = 0.05 m, fluid
@@ -133,17 +134,21 @@ def step_vjp(config, state, params, repeats: int) -> dict:
     return out
 
 
-def adjoint_ab(scene, steps: int, repeats: int) -> list[dict]:
-    """Forward and checkpointed-gradient times of ``steps`` steps per (adjoint, row_tile), interleaved."""
+def adjoint_ab(scene, steps: int, repeats: int, tiles=(0, 512)) -> list[dict]:
+    """Forward and checkpointed-gradient times of ``steps`` steps per (adjoint, row_tile, pullbacks), interleaved:
+    ``PAIR_SUMS`` with the hand-derived pullbacks of ``sph.pullbacks`` and with JAX's VJP of each pair function."""
     import jax
 
     from rockjax import prime
     from rockjax.calibrate import observed
 
+    from rockjax.sph.pair_sum import hand_pullbacks
+
     obj = objective(scene)
-    variants = [(a, t) for t in (0, 512) for a in Adjoint]
+    variants = [(a, t, hand) for t in tiles for a in Adjoint for hand in ((True, False) if a == Adjoint.PAIR_SUMS
+                                                                            else (False,))]
     fns = {}
-    for adjoint, tile in variants:
+    for adjoint, tile, hand in variants:
         config = scene.config.replace(adjoint=adjoint, row_tile=tile)
         state0 = jax.jit(prime, static_argnums=2)(scene.state, scene.params, config)
 
@@ -153,9 +158,10 @@ def adjoint_ab(scene, steps: int, repeats: int) -> list[dict]:
         def loss(p, config=config, state0=state0):
             return obj(observed(config, p, steps, None, state=state0, checkpoint=True, prime=False)[0], p)
 
-        fns[adjoint, tile] = [jax.jit(fwd).lower(scene.params).compile(),
-                              jax.jit(jax.grad(loss)).lower(scene.params).compile()]
-        for f in fns[adjoint, tile]:
+        with hand_pullbacks(hand):
+            fns[adjoint, tile, hand] = [jax.jit(fwd).lower(scene.params).compile(),
+                                        jax.jit(jax.grad(loss)).lower(scene.params).compile()]
+        for f in fns[adjoint, tile, hand]:
             jax.block_until_ready(f(scene.params))
     times = {v: ([], []) for v in variants}
     for _ in range(repeats):
@@ -166,9 +172,10 @@ def adjoint_ab(scene, steps: int, repeats: int) -> list[dict]:
                 times[v][k].append(time.perf_counter() - t)
     best_fwd = min(statistics.median(times[v][0]) for v in variants)
     out = []
-    for adjoint, tile in variants:
-        f, g = (statistics.median(x) for x in times[adjoint, tile])
+    for adjoint, tile, hand in variants:
+        f, g = (statistics.median(x) for x in times[adjoint, tile, hand])
         out.append(dict(bench="adjoint_ab", adjoint=adjoint.value, row_tile=tile, steps=steps, repeats=repeats,
+                        pullbacks=("hand" if hand else "jax") if adjoint == Adjoint.PAIR_SUMS else None,
                         forward_s=f, grad_s=g, grad_over_forward=g / f, grad_over_best_forward=g / best_fwd,
                         date=time.strftime("%Y-%m-%d")))
     return out
@@ -194,6 +201,9 @@ def main(argv=None):
     ap.add_argument("--step-vjp", action="store_true",
                     help="only the per-step probe: one step's forward and vector-Jacobian product (time, and the "
                          "[n_fluid, K] arrays and scatter-adds of the compiled programs)")
+    ap.add_argument("--ab-tiles", type=int, nargs="+", default=[0, 512], help="row tiles of --adjoint-ab")
+    ap.add_argument("--jax-pullbacks", action="store_true",
+                    help="PAIR_SUMS with JAX's VJP of each pair function instead of the hand-derived pullbacks")
     ap.add_argument("--adjoint-ab", action="store_true",
                     help="only the interleaved A/B of Config.adjoint x row_tile (0, 512) at --base-steps steps")
     ap.add_argument("--time-plain", action="store_true",
@@ -210,6 +220,11 @@ def main(argv=None):
     from rockjax.calibrate import observed
     from rockjax.rollout import default_chunk
 
+    if args.jax_pullbacks:
+        from rockjax.sph.pair_sum import hand_pullbacks
+
+        hand_off = hand_pullbacks(False)  # for the whole run (kept referenced)
+        hand_off.__enter__()
     scene = build(args.scene, args.dx)
     if args.adjoint:
         scene = scene.replace(config=scene.config.replace(adjoint=Adjoint(args.adjoint)))
@@ -219,14 +234,14 @@ def main(argv=None):
     obj = objective(scene)
     base = dict(scene=args.scene, n_fluid=config.n_fluid, n_wall=config.n_wall,
                 n_blocks=(config.blocks.n_blocks if config.blocks else 0), dtype="f64" if args.f64 else "f32",
-                adjoint=config.effective_adjoint.value,
+                adjoint=config.effective_adjoint.value, jax_pullbacks=args.jax_pullbacks,
                 dt=config.dt, rebuild_every=k, device=str(jax.devices()[0].platform))
     state0 = jax.jit(prime, static_argnums=2)(scene.state, scene.params, config)
     if args.step_vjp:
         print(json.dumps(dict(base, **step_vjp(config, state0, scene.params, args.repeats))), flush=True)
         return
     if args.adjoint_ab:
-        for rec in adjoint_ab(scene, T, args.repeats):
+        for rec in adjoint_ab(scene, T, args.repeats, tuple(args.ab_tiles)):
             print(json.dumps(dict(base, **rec)), flush=True)
         return
 

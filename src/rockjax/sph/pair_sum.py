@@ -35,6 +35,7 @@ Hence ``Config.adjoint``'s default (``effective_adjoint``).
 
 from __future__ import annotations
 
+import contextlib
 from typing import Callable
 
 import jax
@@ -44,7 +45,7 @@ from ..types import Adjoint, Config, Kind
 from .neighbours import Pairs, Rows, neighbour_kind, pairs, scan_rows, take
 from .walls import wall_pair_geometry
 
-__all__ = ["pair_sum", "gathered", "with_pullback"]
+__all__ = ["pair_sum", "gathered", "with_pullback", "hand_pullbacks"]
 
 #: ``fn(ri, cj, d, params, mask, fluid_j, config) -> tuple of per-pair arrays``: ``ri`` a dict of the
 #: rows' values ([R, 1] or [M]), ``cj`` a dict of the neighbours' values ([R, K] or [M]), ``d`` three
@@ -102,7 +103,7 @@ def _sums_bwd(fn, config, shared, res, ct):
     zero = jax.tree_util.tree_map(jnp.zeros_like, params)
     ct_pad = tuple(jnp.concatenate([c, jnp.zeros((n - nf,) + c.shape[1:], c.dtype)]) for c in ct)
 
-    pullback = getattr(fn, "symmetric_pullback", None) if shared else None
+    pullback = getattr(fn, "symmetric_pullback", None) if shared and _HAND[0] else None
     pullback = pullback(config) if pullback is not None else None
 
     def tile(rows: Rows, own, ct_params):
@@ -176,6 +177,21 @@ def pair_sum(fn: PairFn, x, row_vals: dict, col_vals: dict, params, nbrs, kind, 
     sums = _sums_custom if config.effective_adjoint == Adjoint.PAIR_SUMS else _sums
     shared = all(k in col_vals and col_vals[k] is a for k, a in row_vals.items())
     return sums(fn, config, shared, x, row_vals, col_vals, params, nbrs, kind)
+
+
+_HAND = [True]
+
+
+@contextlib.contextmanager
+def hand_pullbacks(enabled: bool):
+    """Within the block, functions *traced* use (True, the default) or ignore (False: JAX's VJP of
+    the pair function from each end) the hand-derived pullbacks: for A/B benchmarks and tests."""
+    old = _HAND[0]
+    _HAND[0] = bool(enabled)
+    try:
+        yield
+    finally:
+        _HAND[0] = old
 
 
 def with_pullback(factory: Callable):
