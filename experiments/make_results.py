@@ -415,15 +415,18 @@ def sec_grad(doc: Doc):
         if ab:
             doc.p(f"`{name}` (`bench_grad.py --adjoint-ab --dx ... --base-steps 32`): the checkpointed gradient of the "
                   "dam scene under each `Config.adjoint` (`autodiff`: JAX transposes each neighbour gather into a "
-                  "scatter-add; `pair_sums`: the gather-only custom VJP of `rockjax.sph.pair_sum`) with the forward's "
+                  "scatter-add; `pair_sums`: the gather-only custom VJP of `rockjax.sph.pair_sum`, its pair functions' "
+                  "pullbacks hand-derived (`rockjax.sph.pullbacks`, both ends of a pair at once: `hand`) or JAX's VJP "
+                  "from each end (`jax`; records before 2026-11-26 afternoon: `-`, JAX's)) with the forward's "
                   "pair sums in one block (`row_tile` 0) or in blocks of 512 rows, all compiled in one process and "
                   "timed alternately (medians). `grad / best forward` divides by the fastest forward of the record's "
                   "size. Default (`adjoint=None`): `pair_sums` where the forward runs in blocks (lists over 2^19 "
                   "slots), else `autodiff`.")
-            rows = [[r["n_fluid"], r["dtype"], r["steps"], r["row_tile"], r["adjoint"], r["forward_s"], r["grad_s"],
-                     r["grad_over_forward"], r["grad_over_best_forward"], r.get("date")] for r in ab]
-            doc.p(table(["n_fluid", "dtype", "steps", "row_tile", "adjoint", "forward s", "grad s", "grad / forward",
-                         "grad / best forward", "date"], rows))
+            rows = [[r["n_fluid"], r["dtype"], r["steps"], r["row_tile"], r["adjoint"], r.get("pullbacks") or "-",
+                     r["forward_s"], r["grad_s"], r["grad_over_forward"], r["grad_over_best_forward"], r.get("date")]
+                    for r in ab]
+            doc.p(table(["n_fluid", "dtype", "steps", "row_tile", "adjoint", "pullbacks", "forward s", "grad s",
+                         "grad / forward", "grad / best forward", "date"], rows))
         if sv:
             doc.p(f"`{name}` (`bench_grad.py --step-vjp --dx ...`): one WCSPH step of the dam scene, its forward and "
                   "its forward + vector-Jacobian product (best of the runs; the VJP includes the forward), and in each "

@@ -13,7 +13,12 @@ agree to round-off (bound 1e-10 of each leaf's largest entry; measured <= 2e-14)
   inputs), laminar viscosity, dynamic walls, in blocks of 7 rows, so the last block overlaps its
   predecessor (its shared rows must count once);
 * ``wedge``: the sliding wedge with boundary particles (block particles as wall columns; the
-  blocks' loads from the pairs; the block state in the outcome).
+  blocks' loads from the pairs; the block state in the outcome);
+* ``dam-no-diffusion``: no density diffusion, in blocks of 7 rows.
+
+``dam``, ``wedge`` and ``dam-no-diffusion`` run the hand-derived pullbacks of ``rockjax.sph.pullbacks``
+(both ends of a pair at once; the test checks that the trace takes them), the Antuono/laminar case
+JAX's VJP of each pair function.
 
 And through a whole checkpointed rollout (``gradcases.tiny_dam_break``, 96 steps, 12 rebuilds):
 the gradient of ``test_fluid_grad``'s loss agrees to round-off (measured <= 2e-15).
@@ -33,6 +38,7 @@ import pytest
 
 import gradcases as gc
 import rockjax as rj
+from rockjax.sph import wcsph
 from rockjax.sph.kernels import SUPPORT_FACTOR
 from rockjax.sph.neighbours import block_plan
 from rockjax.step import advance
@@ -44,7 +50,12 @@ CASES = {
                                                              viscosity=rj.Viscosity.LAMINAR,
                                                              wall_model=rj.WallModel.DYNAMIC), row_tile=7),
     "wedge": dict(scene="wedge", kw=dict(coupling=rj.Coupling.BOUNDARY_PARTICLES), row_tile=None),
+    "dam-no-diffusion": dict(scene="dam", kw=dict(density_diffusion=rj.DensityDiffusion.NONE), row_tile=7),
 }
+
+#: which cases' pair functions have a hand-derived pullback (``rockjax.sph.pullbacks``): the
+#: others run JAX's VJP of the pair function from each end
+HAND = {"dam": True, "dam-antuono-laminar-dynamic": False, "wedge": True, "dam-no-diffusion": True}
 
 
 def _scene(case):
@@ -100,13 +111,21 @@ def _grad(config, state, params, adjoint):
 
 
 @pytest.mark.parametrize("name", list(CASES))
-def test_pair_sum_adjoint_equals_autodiff(warm, name):
+def test_pair_sum_adjoint_equals_autodiff(warm, name, monkeypatch):
     config, state, params = warm[name]
     if CASES[name]["row_tile"]:
         size, count = block_plan(config.n_fluid, config.row_tile)
         assert size * count > config.n_fluid  # the last block overlaps (the case is meant to)
+    used = []
+    for fn in (wcsph._momentum_pair, wcsph._continuity_pair):  # record which pullbacks the trace takes
+        def spy(config, factory=fn.symmetric_pullback):
+            pb = factory(config)
+            used.append(pb is not None)
+            return pb
+        monkeypatch.setattr(fn, "symmetric_pullback", spy)
     ref = _grad(config, state, params, rj.Adjoint.AUTODIFF)
     got = _grad(config, state, params, rj.Adjoint.PAIR_SUMS)
+    assert set(used) == {HAND[name]} and len(used) == (2 if HAND[name] else 1), used  # Antuono: no momentum_pair
     ref_leaves, _ = jax.tree_util.tree_flatten_with_path(ref)
     checked = 0
     for (path, a), b in zip(ref_leaves, jax.tree_util.tree_leaves(got)):

@@ -148,12 +148,19 @@ def _sums_bwd(fn, config, shared, res, ct):
         row, col, valid = wp.row, wp.col, wp.valid
         ri_w = {k: take(a, row) for k, a in row_vals.items()}
         ct_w = tuple(jnp.where(valid, take(c, row), 0.0) for c in ct_pad)
+        if pullback is not None:  # the wall as the pair's j end: own = wall, neighbour = fluid row
+            no = tuple(jnp.zeros((), ct[0].dtype) for _ in ct)
+            ct_cw, ct_dw, _ = pullback({k: take(a, col) for k, a in col_vals.items()},
+                                       {k: take(a, row) for k, a in col_vals.items()}, tuple(-c for c in wp.d), wp.r,
+                                       params, valid, jnp.zeros_like(valid), no, ct_w, no)
+            ct_cw = {k: jnp.broadcast_to(ct_cw.get(k, 0.0), valid.shape) for k in col_vals}
+            ct_dw = tuple(-c for c in ct_dw)  # as the derivative along x_row - x_col
+        else:
+            def as_wall(cj_w, d_w):
+                return fn(ri_w, cj_w, d_w, params, valid, jnp.zeros_like(valid), config)
 
-        def as_wall(cj_w, d_w):
-            return fn(ri_w, cj_w, d_w, params, valid, jnp.zeros_like(valid), config)
-
-        _, pull_w = jax.vjp(as_wall, {k: take(a, col) for k, a in col_vals.items()}, wp.d)
-        ct_cw, ct_dw = pull_w(ct_w)
+            _, pull_w = jax.vjp(as_wall, {k: take(a, col) for k, a in col_vals.items()}, wp.d)
+            ct_cw, ct_dw = pull_w(ct_w)
         # one scatter of [M, C] rows, not C scatters of [M] (XLA:CPU scatters index by index)
         keys = list(ct_cw)
         sums = jax.ops.segment_sum(jnp.where(valid[:, None], jnp.stack([ct_cw[k] for k in keys] + list(ct_dw), axis=1),

@@ -21,6 +21,9 @@ row block's own values ``own`` ([R, 1] arrays), its neighbours' ``nb`` ([R, K]),
 ``g_p`` (``g_r`` restricted to the rows whose parameters this block counts), and returns
 ``(ct_own, ct_d, ct_params)``: per-pair cotangents of row r's values (dict), of ``d`` (three
 arrays; ``x_r``'s, since ``d = x_r - x_j``) and the ``Params`` cotangent (summed).
+``pair_sum`` also runs it over the flat (fluid, wall) pair list with the wall as ``own``, the
+fluid row as the neighbour, ``fluid_j`` False (the pair has a non-fluid end: wall viscosity, no
+diffusion) and ``g_r = g_p = 0``: the wall columns' cotangents as the pairs' j ends.
 
 Tested against the generic VJP in float64 (``tests/gradients/test_pair_sum_adjoint.py``).
 Measured (2026-11-26, ``experiments/pair_vjp_hand.py``): see ``pair_sum``'s docstring.
@@ -155,12 +158,13 @@ def continuity(config: Config) -> Optional[Callable]:
             Hg = f.rho0 / f.c0**2 * P  # H / g_dx
             psi = (rho_j - rho_r) - Hg * g_dx
             D = -2.0 * f.delta * f.h * f.c0
-            use = fluid_j  # the diffusion runs over fluid pairs; fn(j, r) has r fluid
-            B = jnp.where(use, c_r * V_j, 0.0) - c_j * V_r  # fn(r, j) has + psi, fn(j, r) has -psi
+            use = fluid_j  # the diffusion runs over fluid pairs (``fluid_j`` False: a wall or block end)
+            c_jd = jnp.where(use, c_j, 0.0)
+            B = jnp.where(use, c_r * V_j, 0.0) - c_jd * V_r  # fn(r, j) has + psi, fn(j, r) has -psi
             L_F = L_F + D * psi * B
             psi_b = D * B * F
-            ct_rho = ct_rho + c_j * V_r * D * psi * F / rho_r - psi_b * (1.0 + g_dx / (2.0 * f.c0**2) * dP)
-            ct_vol = ct_vol - c_j * D * psi * F * f.rho0 / rho_r
+            ct_rho = ct_rho + c_jd * V_r * D * psi * F / rho_r - psi_b * (1.0 + g_dx / (2.0 * f.c0**2) * dP)
+            ct_vol = ct_vol - c_jd * D * psi * F * f.rho0 / rho_r
             ct_d = [ct_d[a] + psi_b * Hg * g[a] for a in range(3)]
             # parameters, from fn(r, j): c_p D V_j psi F
             q = jnp.where(use, c_p * V_j * F, 0.0)  # dL_i / d(D psi)
