@@ -161,12 +161,11 @@ def _sums_bwd(fn, config, shared, res, ct):
 
             _, pull_w = jax.vjp(as_wall, {k: take(a, col) for k, a in col_vals.items()}, wp.d)
             ct_cw, ct_dw = pull_w(ct_w)
-        # one scatter of [M, C] rows, not C scatters of [M] (XLA:CPU scatters index by index)
-        keys = list(ct_cw)
-        sums = jax.ops.segment_sum(jnp.where(valid[:, None], jnp.stack([ct_cw[k] for k in keys] + list(ct_dw), axis=1),
-                                             0.0), col, num_segments=n)
-        ct_col = dict(ct_col, **{k: ct_col[k] + sums[:, c] for c, k in enumerate(keys)})
-        ct_x = ct_x - sums[:, len(keys):]
+        # a scatter per quantity: stacked into one [M, C] scatter, XLA:CPU computed every column's
+        # whole expression again per column (continuity at 8.4k water: 7.2 ms against 2.6-3.5 ms)
+        seg = lambda v: jax.ops.segment_sum(jnp.where(valid, v, 0.0), col, num_segments=n)  # noqa: E731
+        ct_col = jax.tree_util.tree_map(lambda a, v: a + seg(v), ct_col, ct_cw)
+        ct_x = ct_x - jnp.stack([seg(ct_dw[a]) for a in range(3)], axis=1)
     return ct_x, ct_row, ct_col, ct_params, None, None
 
 
