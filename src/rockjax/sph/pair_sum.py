@@ -19,8 +19,11 @@ the kernel's support, where every pair term and its derivatives vanish). Given t
   (``NeighbourList.wall_row``), with a scatter of that short list only.
 
 Both row parts produce per-row results (no scatter, no [n, K] cotangent array written out), and
-run in row blocks (``scan_rows``). The forward is the same computation either way; the custom
-VJP serves reverse mode only (``jax.grad``, ``jax.vjp``): ``jax.jvp`` through it raises, so
+run in row blocks (``scan_rows``). Where the pair function has a hand-derived pullback
+(``with_pullback``; ``sph.pullbacks``: the default momentum and continuity terms) the two ends of
+each pair come from one evaluation of the quantities they share instead of two ``jax.vjp``
+evaluations, in the row blocks and over the wall list alike. The forward is the same computation
+either way; the custom VJP serves reverse mode only (``jax.grad``, ``jax.vjp``): ``jax.jvp`` through it raises, so
 forward mode needs ``Adjoint.AUTODIFF``.
 
 Measured (2026-11-26, f32, 2 CPU cores; ``experiments/bench_grad.py --adjoint-ab``: 32-step
@@ -31,6 +34,15 @@ is the faster (6.9 vs 8.4), as a standalone step's VJP would not suggest (17 vs 
 the rollout's scan XLA runs JAX's transposed pass faster than alone, and this VJP's row blocks add
 ~4x the operations (``jax.profiler``: 510k vs 112k per 64-step gradient, the same thread time).
 Hence ``Config.adjoint``'s default (``effective_adjoint``).
+
+With the hand-derived pullbacks (2026-11-26, same benchmark, interleaved): 7.3 forwards
+at 2.9k in one block (``jax.vjp`` of the pair functions: 8.4; ``AUTODIFF`` 7.1), 6.8 at 8.4k and 6.6
+at 23k in blocks of 512 rows (7.4 / 7.5; ``AUTODIFF`` 10.7 / 12.0). Per 240-row block of the momentum pass, alone, 0.29 ms
+against 0.46 ms with ``jax.vjp`` from each end (forward 0.14 ms); in the pass, XLA:CPU writes each
+per-pair intermediate of the block to memory as its own loop (~40 [240, K] arrays), so the pass's
+reverse stays ~4-6x its forward. Stacking the wall columns' cotangents into one [M, C] scatter was
+slower (XLA fused the stack and recomputed each column's whole expression: 7.2 vs 2.6-3.5 ms for
+the continuity pass at 8.4k), hence a scatter per quantity.
 """
 
 from __future__ import annotations
@@ -82,7 +94,7 @@ def _sums_fwd(fn, config, shared, x, row_vals, col_vals, params, nbrs, kind):
     return out, (x, row_vals, col_vals, params, nbrs, kind)
 
 
-def _symmetric(pr: Pairs, own, fluid_j, pullback, x, col_vals, params, ct, ct_pad, config):
+def _symmetric(pr: Pairs, own, fluid_j, pullback, col_vals, params, ct, ct_pad):
     """Row block ``pr``'s cotangents from both ends of its pairs by the hand-derived ``pullback``
     (``sph.pullbacks``): ``(ct_params, ct_row_values [R] dict, ct_x [R, 3])``."""
     rows = pr.rows
@@ -110,7 +122,7 @@ def _sums_bwd(fn, config, shared, res, ct):
         pr = pairs(x, kind, nbrs.idx, config, rows=rows)
         d, mask, fluid_j = pr.d, pr.mask, _fluid_j(pr, config)
         if pullback is not None:  # both ends at once; row and column values are the same arrays
-            ct_p, ct_vals, ct_x = _symmetric(pr, own, fluid_j, pullback, x, col_vals, params, ct, ct_pad, config)
+            ct_p, ct_vals, ct_x = _symmetric(pr, own, fluid_j, pullback, col_vals, params, ct, ct_pad)
             ct_row = {k: jnp.zeros((rows.size,), a.dtype) for k, a in row_vals.items()}
             return jax.tree_util.tree_map(jnp.add, ct_params, ct_p), (ct_row, ct_vals, ct_x)
         ct_r = tuple(rows.of(c) for c in ct)
@@ -146,7 +158,6 @@ def _sums_bwd(fn, config, shared, res, ct):
     if n > nf:  # the wall columns, over the flat (fluid row, wall) list
         wp = wall_pair_geometry(x, nbrs, config.grid)
         row, col, valid = wp.row, wp.col, wp.valid
-        ri_w = {k: take(a, row) for k, a in row_vals.items()}
         ct_w = tuple(jnp.where(valid, take(c, row), 0.0) for c in ct_pad)
         if pullback is not None:  # the wall as the pair's j end: own = wall, neighbour = fluid row
             no = tuple(jnp.zeros((), ct[0].dtype) for _ in ct)
@@ -156,6 +167,8 @@ def _sums_bwd(fn, config, shared, res, ct):
             ct_cw = {k: jnp.broadcast_to(ct_cw.get(k, 0.0), valid.shape) for k in col_vals}
             ct_dw = tuple(-c for c in ct_dw)  # as the derivative along x_row - x_col
         else:
+            ri_w = {k: take(a, row) for k, a in row_vals.items()}
+
             def as_wall(cj_w, d_w):
                 return fn(ri_w, cj_w, d_w, params, valid, jnp.zeros_like(valid), config)
 
