@@ -417,7 +417,7 @@ def sec_grad(doc: Doc):
                   "dam scene under each `Config.adjoint` (`autodiff`: JAX transposes each neighbour gather into a "
                   "scatter-add; `pair_sums`: the gather-only custom VJP of `rockjax.sph.pair_sum`, its pair functions' "
                   "pullbacks hand-derived (`rockjax.sph.pullbacks`, both ends of a pair at once: `hand`) or JAX's VJP "
-                  "from each end (`jax`; records before 2026-11-26 afternoon: `-`, JAX's)) with the forward's "
+                  "from each end (`jax`; `-` in the records taken before the hand pullbacks existed: JAX's)) with the forward's "
                   "pair sums in one block (`row_tile` 0) or in blocks of 512 rows, all compiled in one process and "
                   "timed alternately (medians). `grad / best forward` divides by the fastest forward of the record's "
                   "size. Default (`adjoint=None`): `pair_sums` where the forward runs in blocks (lists over 2^19 "
