@@ -15,8 +15,10 @@ number of steps, and ensemble throughput. JSON lines on stdout.
    ``Config.adjoint`` (``AUTODIFF``: JAX transposes the neighbour gathers; ``PAIR_SUMS``: the
    gather-only custom VJP of ``rockjax.sph.pair_sum``, with the hand-derived pullbacks of
    ``rockjax.sph.pullbacks`` and with JAX's VJP of each pair function), each with the forward in
-   one block (``row_tile`` 0) and in blocks of 512 rows (``--ab-tiles``), compiled in one process and timed alternately
-   (``--repeats`` rounds; medians): the ratios hold on a shared machine.
+   one block (``row_tile`` 0) and in blocks of 512 rows (``--ab-tiles``), compiled in one process
+   and timed alternately (``--repeats`` rounds; medians): the ratios hold on a shared machine.
+4. ``--levels-ab 1 2``: the same for the rollout's ``checkpoint_levels`` (chunks only, or chunks
+   and steps), with the scene's adjoint, and the compiled gradient's XLA temporary bytes.
 
 Scenes (``--scene``): ``dam`` (default: a 0.3 x 0.3 x 0.5 m dam break at dx = 0.05 m, fluid
 only; ``--dx 0.025``: 2 880 fluid), ``incline`` (blocks only), ``wedge`` (coupled, dx = 0.05 m).
@@ -181,6 +183,44 @@ def adjoint_ab(scene, steps: int, repeats: int, tiles=(0, 512)) -> list[dict]:
     return out
 
 
+def levels_ab(scene, steps: int, repeats: int, levels=(1, 2)) -> list[dict]:
+    """The checkpointed gradient of ``steps`` steps per ``checkpoint_levels`` (the scene's adjoint),
+    compiled in one process and timed alternately with the forward; XLA's temporary bytes too."""
+    import jax
+
+    from rockjax import prime
+    from rockjax.calibrate import observed
+
+    obj = objective(scene)
+    config = scene.config
+    state0 = jax.jit(prime, static_argnums=2)(scene.state, scene.params, config)
+
+    def fwd(p):
+        return obj(observed(config, p, steps, None, state=state0, checkpoint=False, prime=False)[0], p)
+
+    fns = {"forward": jax.jit(fwd).lower(scene.params).compile()}
+    for lv in levels:
+        def loss(p, lv=lv):
+            return obj(observed(config, p, steps, None, state=state0, checkpoint=True, prime=False,
+                                checkpoint_levels=lv)[0], p)
+
+        fns[lv] = jax.jit(jax.grad(loss)).lower(scene.params).compile()
+    times = {k: [] for k in fns}
+    for k, f in fns.items():
+        jax.block_until_ready(f(scene.params))
+    for _ in range(repeats):
+        for k, f in fns.items():
+            t = time.perf_counter()
+            jax.block_until_ready(f(scene.params))
+            times[k].append(time.perf_counter() - t)
+    f = statistics.median(times["forward"])
+    return [dict(bench="levels_ab", checkpoint_levels=lv, adjoint=config.effective_adjoint.value, steps=steps,
+                 repeats=repeats, forward_s=f, grad_s=statistics.median(times[lv]),
+                 grad_over_forward=statistics.median(times[lv]) / f,
+                 grad_temp_bytes=int(fns[lv].memory_analysis().temp_size_in_bytes), date=time.strftime("%Y-%m-%d"))
+            for lv in levels]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="dam", choices=["dam", "incline", "wedge"])
@@ -201,6 +241,8 @@ def main(argv=None):
     ap.add_argument("--step-vjp", action="store_true",
                     help="only the per-step probe: one step's forward and vector-Jacobian product (time, and the "
                          "[n_fluid, K] arrays and scatter-adds of the compiled programs)")
+    ap.add_argument("--levels-ab", type=int, nargs="+", default=None,
+                    help="only the interleaved A/B of checkpoint_levels (e.g. 1 2) at --base-steps steps")
     ap.add_argument("--ab-tiles", type=int, nargs="+", default=[0, 512], help="row tiles of --adjoint-ab")
     ap.add_argument("--jax-pullbacks", action="store_true",
                     help="PAIR_SUMS with JAX's VJP of each pair function instead of the hand-derived pullbacks")
@@ -239,6 +281,10 @@ def main(argv=None):
     state0 = jax.jit(prime, static_argnums=2)(scene.state, scene.params, config)
     if args.step_vjp:
         print(json.dumps(dict(base, **step_vjp(config, state0, scene.params, args.repeats))), flush=True)
+        return
+    if args.levels_ab:
+        for rec in levels_ab(scene, T, args.repeats, tuple(args.levels_ab)):
+            print(json.dumps(dict(base, **rec)), flush=True)
         return
     if args.adjoint_ab:
         for rec in adjoint_ab(scene, T, args.repeats, tuple(args.ab_tiles)):
