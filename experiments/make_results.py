@@ -412,6 +412,16 @@ def sec_grad(doc: Doc):
         e = [r for r in recs if r.get("bench") == "ensemble"]
         sv = [r for r in recs if r.get("bench") == "step_vjp"]
         ab = [r for r in recs if r.get("bench") == "adjoint_ab"]
+        lv = [r for r in recs if r.get("bench") == "levels_ab"]
+        if lv:
+            doc.p(f"`{name}` (`bench_grad.py --levels-ab 1 2 --dx ... --base-steps 32`): the checkpointed gradient "
+                  "with the rollout's `checkpoint_levels` 1 (chunks only: each step's pair-sum residuals are stored) "
+                  "and 2 (chunks and steps: each step's forward runs again inside its VJP), compiled in one process "
+                  "and timed alternately with the forward (medians); memory = XLA temporary bytes of the gradient.")
+            rows = [[r["n_fluid"], r["dtype"], r["adjoint"], r["steps"], r["checkpoint_levels"], r["forward_s"],
+                     r["grad_s"], r["grad_over_forward"], r["grad_temp_bytes"] / 2**20, r.get("date")] for r in lv]
+            doc.p(table(["n_fluid", "dtype", "adjoint", "steps", "checkpoint levels", "forward s", "grad s",
+                         "grad / forward", "grad MiB", "date"], rows))
         if ab:
             doc.p(f"`{name}` (`bench_grad.py --adjoint-ab --dx ... --base-steps 32`): the checkpointed gradient of the "
                   "dam scene under each `Config.adjoint` (`autodiff`: JAX transposes each neighbour gather into a "

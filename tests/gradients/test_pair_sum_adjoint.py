@@ -8,7 +8,7 @@ order, so the gradient of one step's outcome with respect to every state and par
 agree to round-off (bound 1e-10 of each leaf's largest entry; measured <= 2e-14):
 
 * ``dam``: the default scheme (Fourtakas diffusion, artificial viscosity, Adami walls), the
-  forward in one block and the reverse pass in blocks;
+  forward in one block and the reverse pass in blocks (of 128 rows: ``pair_sum.BACKWARD_TILE`` set);
 * ``dam-antuono-laminar-dynamic``: Antuono's diffusion (renormalised gradients as pass outputs and
   inputs), laminar viscosity, dynamic walls, in blocks of 7 rows, so the last block overlaps its
   predecessor (its shared rows must count once);
@@ -38,14 +38,14 @@ import pytest
 
 import gradcases as gc
 import rockjax as rj
-from rockjax.sph import wcsph
+from rockjax.sph import pair_sum, wcsph
 from rockjax.sph.kernels import SUPPORT_FACTOR
 from rockjax.sph.neighbours import block_plan
 from rockjax.step import advance
 
 DX = 0.05
 CASES = {
-    "dam": dict(scene="dam", kw={}, row_tile=None),
+    "dam": dict(scene="dam", kw={}, row_tile=None, backward_tile=128),
     "dam-antuono-laminar-dynamic": dict(scene="dam", kw=dict(density_diffusion=rj.DensityDiffusion.ANTUONO,
                                                              viscosity=rj.Viscosity.LAMINAR,
                                                              wall_model=rj.WallModel.DYNAMIC), row_tile=7),
@@ -123,6 +123,9 @@ def test_pair_sum_adjoint_equals_autodiff(warm, name, monkeypatch):
             used.append(pb is not None)
             return pb
         monkeypatch.setattr(fn, "symmetric_pullback", spy)
+    if CASES[name].get("backward_tile"):  # the reverse pass in blocks although the forward runs in one
+        monkeypatch.setattr(pair_sum, "BACKWARD_TILE", CASES[name]["backward_tile"])
+        assert config.n_fluid > pair_sum.BACKWARD_TILE and config.effective_row_tile == 0
     ref = _grad(config, state, params, rj.Adjoint.AUTODIFF)
     got = _grad(config, state, params, rj.Adjoint.PAIR_SUMS)
     assert set(used) == {HAND[name]} and len(used) == (2 if HAND[name] else 1), used  # Antuono: no momentum_pair

@@ -66,9 +66,12 @@ __all__ = ["pair_sum", "gathered", "with_pullback", "hand_pullbacks"]
 PairFn = Callable
 
 #: rows per block of the reverse pass when the forward runs in one block (``Config.row_tile`` 0 or
-#: unset on a small list): its per-pair derivatives stay in cache (one WCSPH step's VJP at 2 880
-#: fluid rows, K = 120, f32, 2026-11-26: 17 ms in blocks of 64-512 rows, 34 ms of 1 024, 46 ms in one).
-BACKWARD_TILE = 256
+#: unset on a small list): its per-pair derivatives stay in cache. One WCSPH step's VJP at 2 880
+#: fluid rows, K = 120, f32 (2026-11-26): with ``jax.vjp`` of the pair functions 17 ms in blocks of
+#: 64-512 rows, 34 ms of 1 024, 46 ms in one; with the hand-derived pullbacks 14.4 ms in blocks of
+#: 512, 17.0 of 256, 21.3 of 1 024, and the 32-step checkpointed gradient 6.8 forwards in blocks of
+#: 384 or 512 against 7.1 of 256 (``AUTODIFF``: 7.0; interleaved).
+BACKWARD_TILE = 512
 
 
 def gathered(pr: Pairs, row_vals: dict, col_vals: dict):
