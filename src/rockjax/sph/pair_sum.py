@@ -35,8 +35,8 @@ the rollout's scan XLA runs JAX's transposed pass faster than alone, and this VJ
 ~4x the operations (``jax.profiler``: 510k vs 112k per 64-step gradient, the same thread time).
 Hence ``Config.adjoint``'s default (``effective_adjoint``).
 
-With the hand-derived pullbacks (2026-11-26, same benchmark, interleaved): 7.3 forwards
-at 2.9k in one block (``jax.vjp`` of the pair functions: 8.4; ``AUTODIFF`` 7.1), 6.8 at 8.4k and 6.6
+With the hand-derived pullbacks (2026-11-26, same benchmark, interleaved): 7.0 forwards
+at 2.9k in one block (``jax.vjp`` of the pair functions: 7.6; ``AUTODIFF`` 7.1), 6.8 at 8.4k and 6.6
 at 23k in blocks of 512 rows (7.4 / 7.5; ``AUTODIFF`` 10.7 / 12.0). Per 240-row block of the momentum pass, alone, 0.29 ms
 against 0.46 ms with ``jax.vjp`` from each end (forward 0.14 ms); in the pass, XLA:CPU writes each
 per-pair intermediate of the block to memory as its own loop (~40 [240, K] arrays), so the pass's
