@@ -18,7 +18,9 @@ number of steps, and ensemble throughput. JSON lines on stdout.
    one block (``row_tile`` 0) and in blocks of 512 rows (``--ab-tiles``), compiled in one process
    and timed alternately (``--repeats`` rounds; medians): the ratios hold on a shared machine.
 4. ``--levels-ab 1 2``: the same for the rollout's ``checkpoint_levels`` (chunks only, or chunks
-   and steps), with the scene's adjoint, and the compiled gradient's XLA temporary bytes.
+   and steps), with the scene's adjoint, and the compiled gradient's XLA temporary bytes; under
+   ``PAIR_SUMS`` levels >= 2 with and without the steps saving the pair sums' outputs
+   (``rockjax.rollout.saved_pair_sums``).
 
 Scenes (``--scene``): ``dam`` (default: a 0.3 x 0.3 x 0.5 m dam break at dx = 0.05 m, fluid
 only; ``--dx 0.025``: 2 880 fluid), ``incline`` (blocks only), ``wedge`` (coupled, dx = 0.05 m).
@@ -198,13 +200,18 @@ def levels_ab(scene, steps: int, repeats: int, levels=(1, 2)) -> list[dict]:
     def fwd(p):
         return obj(observed(config, p, steps, None, state=state0, checkpoint=False, prime=False)[0], p)
 
+    from rockjax.rollout import saved_pair_sums
+
     fns = {"forward": jax.jit(fwd).lower(scene.params).compile()}
-    for lv in levels:
+    variants = [(lv, save) for lv in levels
+                for save in ((True, False) if lv >= 2 and config.effective_adjoint == Adjoint.PAIR_SUMS else (True,))]
+    for lv, save in variants:
         def loss(p, lv=lv):
             return obj(observed(config, p, steps, None, state=state0, checkpoint=True, prime=False,
                                 checkpoint_levels=lv)[0], p)
 
-        fns[lv] = jax.jit(jax.grad(loss)).lower(scene.params).compile()
+        with saved_pair_sums(save):
+            fns[lv, save] = jax.jit(jax.grad(loss)).lower(scene.params).compile()
     times = {k: [] for k in fns}
     for k, f in fns.items():
         jax.block_until_ready(f(scene.params))
@@ -214,11 +221,12 @@ def levels_ab(scene, steps: int, repeats: int, levels=(1, 2)) -> list[dict]:
             jax.block_until_ready(f(scene.params))
             times[k].append(time.perf_counter() - t)
     f = statistics.median(times["forward"])
-    return [dict(bench="levels_ab", checkpoint_levels=lv, adjoint=config.effective_adjoint.value, steps=steps,
-                 repeats=repeats, forward_s=f, grad_s=statistics.median(times[lv]),
-                 grad_over_forward=statistics.median(times[lv]) / f,
-                 grad_temp_bytes=int(fns[lv].memory_analysis().temp_size_in_bytes), date=time.strftime("%Y-%m-%d"))
-            for lv in levels]
+    return [dict(bench="levels_ab", checkpoint_levels=lv, saved_pair_sums=save, adjoint=config.effective_adjoint.value,
+                 steps=steps, repeats=repeats, forward_s=f, grad_s=statistics.median(times[lv, save]),
+                 grad_over_forward=statistics.median(times[lv, save]) / f,
+                 grad_temp_bytes=int(fns[lv, save].memory_analysis().temp_size_in_bytes),
+                 date=time.strftime("%Y-%m-%d"))
+            for lv, save in variants]
 
 
 def main(argv=None):

@@ -417,10 +417,14 @@ def sec_grad(doc: Doc):
             doc.p(f"`{name}` (`bench_grad.py --levels-ab 1 2 --dx ... --base-steps 32`): the checkpointed gradient "
                   "with the rollout's `checkpoint_levels` 1 (chunks only: each step's pair-sum residuals are stored) "
                   "and 2 (chunks and steps: each step's forward runs again inside its VJP), compiled in one process "
-                  "and timed alternately with the forward (medians); memory = XLA temporary bytes of the gradient.")
-            rows = [[r["n_fluid"], r["dtype"], r["adjoint"], r["steps"], r["checkpoint_levels"], r["forward_s"],
+                  "and timed alternately with the forward (medians); memory = XLA temporary bytes of the gradient. "
+                  "`steps save pair sums`: with `pair_sums`, whether a checkpointed step keeps its pair passes' "
+                  "outputs for its VJP (`rockjax.rollout.saved_pair_sums`; `-`: records before it existed, no).")
+            rows = [[r["n_fluid"], r["dtype"], r["adjoint"], r["steps"], r["checkpoint_levels"],
+                     {True: "yes", False: "no"}.get(r.get("saved_pair_sums"), "-"), r["forward_s"],
                      r["grad_s"], r["grad_over_forward"], r["grad_temp_bytes"] / 2**20, r.get("date")] for r in lv]
-            doc.p(table(["n_fluid", "dtype", "adjoint", "steps", "checkpoint levels", "forward s", "grad s",
+            doc.p(table(["n_fluid", "dtype", "adjoint", "steps", "checkpoint levels", "steps save pair sums",
+                         "forward s", "grad s",
                          "grad / forward", "grad MiB", "date"], rows))
         if ab:
             doc.p(f"`{name}` (`bench_grad.py --adjoint-ab --dx ... --base-steps 32`): the checkpointed gradient of the "

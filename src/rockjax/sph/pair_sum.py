@@ -52,12 +52,13 @@ from typing import Callable
 
 import jax
 import jax.numpy as jnp
+from jax.ad_checkpoint import checkpoint_name
 
 from ..types import Adjoint, Config, Kind
 from .neighbours import Pairs, Rows, neighbour_kind, pairs, scan_rows, take
 from .walls import wall_pair_geometry
 
-__all__ = ["pair_sum", "gathered", "with_pullback", "hand_pullbacks"]
+__all__ = ["pair_sum", "gathered", "with_pullback", "hand_pullbacks", "SAVED_NAME"]
 
 #: ``fn(ri, cj, d, params, mask, fluid_j, config) -> tuple of per-pair arrays``: ``ri`` a dict of the
 #: rows' values ([R, 1] or [M]), ``cj`` a dict of the neighbours' values ([R, K] or [M]), ``d`` three
@@ -72,6 +73,12 @@ PairFn = Callable
 #: 512, 17.0 of 256, 21.3 of 1 024, and the 32-step checkpointed gradient 6.8 forwards in blocks of
 #: 384 or 512 against 7.1 of 256 (``AUTODIFF``: 7.0; interleaved).
 BACKWARD_TILE = 512
+
+#: ``jax.ad_checkpoint.checkpoint_name`` of the pair sums' outputs under ``Adjoint.PAIR_SUMS``:
+#: per-particle arrays that a rollout's checkpointed step saves (``rollout.make_rollout``), so that
+#: recomputing the step for its VJP does not run the pair passes again (their custom VJP keeps only
+#: its inputs, which are cheap to recompute).
+SAVED_NAME = "rockjax_pair_sums"
 
 
 def gathered(pr: Pairs, row_vals: dict, col_vals: dict):
@@ -199,9 +206,11 @@ def pair_sum(fn: PairFn, x, row_vals: dict, col_vals: dict, params, nbrs, kind, 
             ``Adjoint.PAIR_SUMS``, the flat wall pairs); kind: [N] ``Kind`` codes.
     The reverse mode is ``config.effective_adjoint``'s (module docstring); the forward is the same.
     """
-    sums = _sums_custom if config.effective_adjoint == Adjoint.PAIR_SUMS else _sums
     shared = all(k in col_vals and col_vals[k] is a for k, a in row_vals.items())
-    return sums(fn, config, shared, x, row_vals, col_vals, params, nbrs, kind)
+    if config.effective_adjoint != Adjoint.PAIR_SUMS:
+        return _sums(fn, config, shared, x, row_vals, col_vals, params, nbrs, kind)
+    out = _sums_custom(fn, config, shared, x, row_vals, col_vals, params, nbrs, kind)
+    return tuple(checkpoint_name(o, SAVED_NAME) for o in out)
 
 
 _HAND = [True]
