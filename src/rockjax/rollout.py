@@ -43,8 +43,9 @@ more than recomputing them; the un-checkpointed gradient is 7.2-10x), 6.5 / 5.6 
 Under ``Adjoint.PAIR_SUMS`` a checkpointed step saves the outputs of its two pair passes
 (per-particle arrays, ``sph.pair_sum.SAVED_NAME``; checkpoint policy ``save_only_these_names``):
 the recomputation of the step for its VJP then skips the pair passes, whose custom VJP needs only
-their inputs. Measured (2026-11-26, dam break, 32 steps, f32, interleaved): 6.3 vs 7.0 forwards at
-8.4k water particles, 6.5 vs 6.9 at 2.9k, the same memory (``saved_pair_sums(False)`` for the A/B).
+their inputs. Measured (2026-11-26, dam break, 32 steps, f32, interleaved; ``saved_pair_sums(False)``
+for the A/B): 6.3 vs 7.0 and 6.41 vs 6.60 forwards at 8.4k water particles (two runs), 6.5 vs 6.9
+at 2.9k, the same memory.
 ``checkpoint=False`` is a plain scan of blocks (the host driver's forward-only path; no memory
 saving, nothing recomputed).
 """

@@ -255,7 +255,9 @@ class Config:
             lists), else ``AUTODIFF`` (``effective_adjoint``; measured 2026-11-26, 32-step
             checkpointed dam-break gradients, f32: at 8.4k and 23k water particles ``PAIR_SUMS``
             1.4-1.6x faster, at 2.9k (one block) ``AUTODIFF`` 1.2x faster; with the hand-derived
-            pullbacks of ``sph.pullbacks`` 1.6-1.8x faster at 8.4k-23k, even at 2.9k: 7.0 vs 7.1 forwards). Forward mode
+            pullbacks of ``sph.pullbacks`` and the rollout keeping the pair sums: 1.6-1.8x faster at
+            8.4k-23k, and at 2.9k too, 6.4 vs 6.9 forwards, but the default keeps ``AUTODIFF``
+            there so that ``jax.jvp`` works). Forward mode
             (``jax.jvp``) through a step needs ``AUTODIFF``.
         gamma: Tait exponent (WCSPH).
         cfl: Courant number used for the host time step and the in-jit stability check.

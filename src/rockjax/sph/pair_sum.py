@@ -23,8 +23,8 @@ run in row blocks (``scan_rows``). Where the pair function has a hand-derived pu
 (``with_pullback``; ``sph.pullbacks``: the default momentum and continuity terms) the two ends of
 each pair come from one evaluation of the quantities they share instead of two ``jax.vjp``
 evaluations, in the row blocks and over the wall list alike. The forward is the same computation
-either way; the custom VJP serves reverse mode only (``jax.grad``, ``jax.vjp``): ``jax.jvp`` through it raises, so
-forward mode needs ``Adjoint.AUTODIFF``.
+either way; the custom VJP serves reverse mode only (``jax.grad``, ``jax.vjp``): ``jax.jvp``
+through it raises, so forward mode needs ``Adjoint.AUTODIFF``.
 
 Measured (2026-11-26, f32, 2 CPU cores; ``experiments/bench_grad.py --adjoint-ab``: 32-step
 checkpointed dam-break gradients, interleaved in one process): where the forward runs in blocks of
@@ -37,7 +37,9 @@ Hence ``Config.adjoint``'s default (``effective_adjoint``).
 
 With the hand-derived pullbacks (2026-11-26, same benchmark, interleaved): 7.0 forwards
 at 2.9k in one block (``jax.vjp`` of the pair functions: 7.6; ``AUTODIFF`` 7.1), 6.8 at 8.4k and 6.6
-at 23k in blocks of 512 rows (7.4 / 7.5; ``AUTODIFF`` 10.7 / 12.0). Per 240-row block of the momentum pass, alone, 0.29 ms
+at 23k in blocks of 512 rows (7.4 / 7.5; ``AUTODIFF`` 10.7 / 12.0); with the rollout's steps also
+keeping the pair sums' outputs (``SAVED_NAME``): 6.4, 6.1 and 6.0 (7.1 / 6.7 / 6.8; ``AUTODIFF``
+6.9 / 9.8 / 11.0). Per 240-row block of the momentum pass, alone, 0.29 ms
 against 0.46 ms with ``jax.vjp`` from each end (forward 0.14 ms); in the pass, XLA:CPU writes each
 per-pair intermediate of the block to memory as its own loop (~40 [240, K] arrays), so the pass's
 reverse stays ~4-6x its forward. Stacking the wall columns' cotangents into one [M, C] scatter was
