@@ -63,6 +63,9 @@ from .sph.pair_sum import SAVED_NAME
 from .step import advance, refresh
 from .types import Adjoint, Config, Kind, Params, State
 
+__all__ = ["make_rollout", "rollout", "n_blocks_for", "default_chunk", "needs_rebuild", "scheduled_step",
+           "saved_pair_sums"]
+
 _SAVE_PAIR_SUMS = [True]
 
 
@@ -77,9 +80,6 @@ def saved_pair_sums(enabled: bool):
         yield
     finally:
         _SAVE_PAIR_SUMS[0] = old
-
-__all__ = ["make_rollout", "rollout", "n_blocks_for", "default_chunk", "needs_rebuild", "scheduled_step",
-           "saved_pair_sums"]
 
 
 def needs_rebuild(state: State, config: Config) -> jax.Array:
