@@ -4,6 +4,7 @@ MuJoCo's CPU simulator as a reference ratio.  Prints JSON lines.
 
     .venv/bin/python experiments/bench_blocks.py [--sizes 10 100 1000] [--steps 200] [--out FILE.jsonl]
     .venv/bin/python experiments/bench_blocks.py --sizes 100 --ab-segments 0 64   # segmented narrow phase vs one pass
+    .venv/bin/python experiments/bench_blocks.py --ab-narrow   # FCP per edge direction / law over active slots, A/B
 
 Pile: N boxes (0.18-0.2 m, 2650 kg/m^3) stacked ~4 high in columns in contact on a fixed floor
 slab, with 2 mm lateral jitter (no initial overlap); k_n = 1e7 N/m, dt = stable_dt.  Timed
@@ -49,12 +50,30 @@ def pile(n, seed=0):
     return [slab(L, L, 0.3)] + polys, np.array([[cxy, cxy, -0.15]] + pos)
 
 
-def run_blocks(n, steps, chunk=50, pair_segment=64):
+def per_edge(st):
+    """``st`` with every edge its own direction: the FCP then scores the crosses of all edge pairs
+    (as before the edge-direction tables; the same planes, more candidates)."""
+    sh = st.shape
+    nE = sh.edges.shape[1]
+    ar = jnp.broadcast_to(jnp.arange(nE, dtype=jnp.int32), sh.edge_mask.shape)
+    return st.replace(shape=sh.replace(edge_direction=ar, direction_edge=ar, direction_mask=sh.edge_mask))
+
+
+#: ``--ab-narrow`` variants: (name, make_blocks keywords, FCP per edge)
+NARROW_VARIANTS = (("per edge, law over all slots", dict(law_slots=0), True),
+                   ("per direction, law over all slots", dict(law_slots=0), False),
+                   ("per edge, law over active slots", {}, True),
+                   ("per direction, law over active slots (default)", {}, False))
+
+
+def run_blocks(n, steps, chunk=50, pair_segment=64, edges_as_directions=False, **kw):
     polys, pos = pile(n)
     motion = [Motion.FIXED] + [Motion.DYNAMIC] * n
     bp = Broadphase.ALL_PAIRS if n <= 32 else Broadphase.GRID
     cfg, par, st = make_blocks(polys, positions=pos, motion=motion, normal_stiffness=1e7, shear_stiffness=4e6,
-                               broadphase=bp, pair_capacity=None, pair_segment=pair_segment)
+                               broadphase=bp, pair_capacity=None, pair_segment=pair_segment, **kw)
+    if edges_as_directions:
+        st = per_edge(st)
     dt = rb.stable_dt(cfg, par, st)
     g = jnp.asarray([0.0, 0.0, -9.81], st.x.dtype)
 
@@ -84,7 +103,8 @@ def run_blocks(n, steps, chunk=50, pair_segment=64):
     wall = time.perf_counter() - tw
     nsteps = nch * chunk
     return dict(bench="blocks_pile", n_blocks=n, broadphase=bp.value, pair_capacity=cfg.pair_capacity,
-                pair_segment=cfg.pair_segment,
+                pair_segment=cfg.pair_segment, law_slots=cfg.law_slots, fcp_per_edge=edges_as_directions,
+                fcp_directions=int(st.shape.direction_edge.shape[1]),
                 contact_slots=cfg.contact_slots, fcp_iterations=cfg.fcp_iterations, dt=dt, steps=nsteps,
                 wall_s=round(wall, 3), compile_plus_first_chunk_s=round(compile_s, 2),
                 block_steps_per_s=n * nsteps / wall, contact_evals_per_s=evals / wall,
@@ -161,6 +181,10 @@ def main():
     ap.add_argument("--ab-segments", type=int, nargs="+", default=None,
                     help="instead: time each pile with these BlockConfig.pair_segment values (0 = one pass over "
                          "the pair buffer), alternated --repeats times in this process, and print the ratios")
+    ap.add_argument("--ab-narrow", action="store_true",
+                    help="instead: time each pile with the FCP scoring every edge or each edge direction, and the "
+                         "contact law over every contact slot or the gathered active ones (BlockConfig.law_slots), "
+                         "alternated --repeats times in this process, and print the ratios")
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--out", default=None, help="also append the records (with date, command, load) to this file")
     a = ap.parse_args()
@@ -169,6 +193,20 @@ def main():
     def out(rec):
         emit(dict(rec, **stamp, load_avg_1m_at_save=os.getloadavg()[0]), a.out)
 
+    if a.ab_narrow:
+        for n in a.sizes:
+            walls = {name: [] for name, _, _ in NARROW_VARIANTS}
+            for _ in range(a.repeats):
+                for name, kw, pe in NARROW_VARIANTS:
+                    r = run_blocks(n, a.steps if n < 1000 else max(50, a.steps // 4), edges_as_directions=pe, **kw)
+                    walls[name].append(r["wall_s"])
+                    out(dict(r, variant=name))
+            best = {name: min(w) for name, w in walls.items()}
+            ref = NARROW_VARIANTS[0][0]
+            out(dict(bench="blocks_narrow_ab", n_blocks=n, pair_capacity=r["pair_capacity"], mean_pairs=r["mean_pairs"],
+                     mean_contact_points=r["mean_contact_points"], steps=r["steps"], best_wall_s=best,
+                     speedup_over_first={name: best[ref] / b for name, b in best.items()}))
+        return
     if a.ab_segments:
         for n in a.sizes:
             walls = {sg: [] for sg in a.ab_segments}

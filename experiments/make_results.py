@@ -376,6 +376,21 @@ def sec_blocks(doc: Doc):
                      "date"], [[r["n_blocks"], r["pair_capacity"], r["mean_pairs"], r["best_wall_s"].get("0"),
                                 r["best_wall_s"].get("64"), r["speedup_over_first"].get("64"), r.get("date")]
                                for r in ab]))
+    nab = doc.records("bench_blocks_narrow.jsonl",
+                      "python experiments/bench_blocks.py --ab-narrow --out experiments/results/bench_blocks_narrow.jsonl")
+    nab = [r for r in nab or [] if r.get("bench") == "blocks_narrow_ab"]
+    if nab:
+        doc.p("The FCP scoring each edge *direction* once (parallel edges give the same candidate planes: a "
+              "box has 3 directions for 12 edges, so a box pair scores 29 candidates per round instead of 182) "
+              "against every edge, and the contact law over each pair's active contact points gathered into "
+              "`BlockConfig.law_slots` (32) slots against all 161 slots: best of the alternated runs in one "
+              "process, speed-up over the first column (the code before both).")
+        names = list(nab[0]["best_wall_s"])
+        doc.p(table(["blocks", "pair slots", "mean overlapping pairs", "contact points", "steps"]
+                    + [f"{nm} s" for nm in names] + ["speed-up of the default", "date"],
+                    [[r["n_blocks"], r["pair_capacity"], r["mean_pairs"], r["mean_contact_points"], r["steps"]]
+                     + [r["best_wall_s"][nm] for nm in names] + [r["speedup_over_first"][names[-1]], r.get("date")]
+                     for r in nab]))
     fcp = [r for r in recs if r.get("bench") == "fcp_iterations"]
     if fcp:
         doc.p(table(["FCP iterations", "cases", "fraction exact", "max depth err / L", "mean depth err / L"],

@@ -154,6 +154,12 @@ def _grow(config: Config, period: int, state: State, bits: int) -> tuple[Config,
     if bits & Status.JOINT_PATCH_OVERFLOW:
         changes["blocks"] = dataclasses.replace(changes.get("blocks", config.blocks),
                                                 joint_patch_points=2 * config.blocks.joint_patch_points)
+    if bits & Status.BLOCK_CELL_OVERFLOW:
+        b = changes.get("blocks", config.blocks)
+        changes["blocks"] = dataclasses.replace(b, grid_cell_capacity=2 * b.grid_cell_capacity)
+    if bits & Status.CONTACT_POINT_OVERFLOW:
+        b = changes.get("blocks", config.blocks)
+        changes["blocks"] = dataclasses.replace(b, law_slots=min(2 * b.law_slots, b.contact_slots))
     if bits & Status.NEIGHBOUR_OVERFLOW:
         changes["neighbour_capacity"] = max(_round8(1.2 * int(state.nbrs.max_count)), config.neighbour_capacity + 8)
     if bits & Status.CELL_OVERFLOW:

@@ -131,18 +131,21 @@ class Status(enum.IntFlag):
     NON_FINITE = 8  #: NaN or Inf in positions, velocities or densities
     OUT_OF_DOMAIN = 16  #: a particle left the neighbour grid (non-periodic axis)
     UNSTABLE_DT = 32  #: dt exceeds the CFL / viscous / force limit for the current state
-    CONTACT_OVERFLOW = 64  #: more candidate block pairs (or contact points) than the buffer holds
+    CONTACT_OVERFLOW = 64  #: more candidate block pairs than ``BlockConfig.pair_capacity``
     BLOCK_UNSTABLE = 128  #: dt exceeds the block stability limit (seed Eq 8) for the current Params
     BLOCK_PENETRATION = 256  #: a block contact penetrated deeper than the allowed fraction of its size
     WALL_PAIR_OVERFLOW = 512  #: more fluid-wall pairs in the list than ``Config.wall_pair_capacity``
     JOINT_PATCH_OVERFLOW = 1024  #: a joint patch has more points than ``BlockConfig.joint_patch_points``
     BODY_PAIR_OVERFLOW = 2048  #: more (fluid, block particle) pairs in the list than ``Config.body_pair_capacity``
+    CONTACT_POINT_OVERFLOW = 4096  #: a block pair has more contact points than ``BlockConfig.law_slots``
+    BLOCK_CELL_OVERFLOW = 8192  #: a broad-phase grid cell holds more blocks than ``BlockConfig.grid_cell_capacity``
 
     @classmethod
     def growable(cls) -> "Status":
         """Bits that the driver cures by growing a buffer (or rebuilding more often) and rerunning."""
         return (cls.NEIGHBOUR_OVERFLOW | cls.CELL_OVERFLOW | cls.NEIGHBOUR_STALE | cls.CONTACT_OVERFLOW
-                | cls.WALL_PAIR_OVERFLOW | cls.JOINT_PATCH_OVERFLOW | cls.BODY_PAIR_OVERFLOW)
+                | cls.WALL_PAIR_OVERFLOW | cls.JOINT_PATCH_OVERFLOW | cls.BODY_PAIR_OVERFLOW
+                | cls.CONTACT_POINT_OVERFLOW | cls.BLOCK_CELL_OVERFLOW)
 
     @classmethod
     def describe(cls, bits: int) -> str:

@@ -40,11 +40,15 @@ def random_rotation(rng):
 
 def padded(poly: ConvexPolyhedron):
     """Padded body-frame arrays of one block at the fixed test sizes."""
-    pk = pack([poly], max_vertices=VMAX, max_faces=FMAX, max_halfedges=EMAX)
+    pk = pack([poly], max_vertices=VMAX, max_faces=FMAX, max_halfedges=EMAX, max_directions=EMAX // 2)
     sf, sv, sm = _stars(poly, VMAX, KMAX)
-    e = np.where(pk.edges[0] < 0, 0, pk.edges[0])
+
+    def idx(a):
+        return np.where(a < 0, 0, a)
+
     return dict(V=pk.vertices[0], vm=pk.vertex_mask[0], N=pk.face_normal[0], D=pk.face_offset[0],
-                fm=pk.face_mask[0], sf=sf, sv=sv, sm=sm, e=e, em=pk.edge_mask[0], r=pk.bounding_radius[0])
+                fm=pk.face_mask[0], sf=sf, sv=sv, sm=sm, e=idx(pk.edges[0]), em=pk.edge_mask[0], r=pk.bounding_radius[0],
+                dirs=(idx(pk.edge_direction[0]), idx(pk.direction_edge[0]), pk.direction_mask[0]))
 
 
 def world(poly: ConvexPolyhedron, q, x):
@@ -86,8 +90,9 @@ def sat(pi, qi, xi, pj, qj, xj):
 
 
 @functools.lru_cache(maxsize=None)
-def fcp_fn(iterations: int):
-    """Jitted ``(bi, qi, xi, bj, qj, xj, n_prev, prev_valid) -> dict`` on padded blocks."""
+def fcp_fn(iterations: int, by_direction: bool = True):
+    """Jitted ``(bi, qi, xi, bj, qj, xj, n_prev, prev_valid) -> dict`` on padded blocks; with
+    ``by_direction`` the FCP scores edge directions (as ``contact_forces`` does), else every edge."""
 
     def run(bi, qi, xi, bj, qj, xj, n_prev, prev_valid):
         Ri, Rj = quat_matrix(qi), quat_matrix(qj)
@@ -98,6 +103,7 @@ def fcp_fn(iterations: int):
         Dj = bj["D"] + Nj @ xj
         out = fcp_pair(Xi, bi["vm"], Ni, bi["fm"], bi["e"], bi["em"],
                        Xj, bj["vm"], Nj, bj["fm"], bj["e"], bj["em"], xi, xj, n_prev, prev_valid,
+                       bi["dirs"] if by_direction else None, bj["dirs"] if by_direction else None,
                        iterations=iterations)
         pts, depth, active = pair_contacts(Xi, bi["vm"], Ni, Di, bi["fm"], bi["e"], bi["em"], bi["r"],
                                            Xj, bj["vm"], Nj, Dj, bj["fm"], bj["e"], bj["em"], bj["r"],

@@ -24,8 +24,8 @@ from fcp_cases import fcp_fn, padded, place_at_gap, random_block, random_rotatio
 ITER = 2  # the default make_blocks fcp_iterations
 
 
-def run_fcp(pi, qi, xi, pj, qj, xj, *, iterations=ITER, n_prev=None):
-    f = fcp_fn(iterations)
+def run_fcp(pi, qi, xi, pj, qj, xj, *, iterations=ITER, n_prev=None, by_direction=True):
+    f = fcp_fn(iterations, by_direction)
     out = f(padded(pi), jnp.asarray(qi, jnp.float32), jnp.asarray(xi, jnp.float32), padded(pj),
             jnp.asarray(qj, jnp.float32), jnp.asarray(xj, jnp.float32),
             jnp.zeros(3) if n_prev is None else jnp.asarray(n_prev, jnp.float32), jnp.bool_(n_prev is not None))
@@ -144,3 +144,41 @@ def test_iterations_vs_accuracy_report():
     vals = [frac[k] for k in sorted(frac)]
     assert all(b >= a for a, b in zip(vals, vals[1:]))
     assert frac[ITER] == 1.0
+
+
+def test_edge_directions_group_parallel_edges():
+    """A box's 12 edges fall into 3 directions of 4 parallel edges, a wedge's 9 into 4 (its
+    triangle's 3 and the extrusion); a random hull's edges are each their own direction."""
+    from rockjax.blocks import wedge
+
+    for poly, n_dir in ((box(1.0, 2.0, 3.0), 3), (wedge(2.0, 1.0, 0.5), 4)):
+        group, rep = poly.edge_directions()
+        assert len(rep) == n_dir
+        d = poly.vertices[poly.edges[:, 1]] - poly.vertices[poly.edges[:, 0]]
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        for k in range(poly.n_edges):  # parallel to its representative, to no other one
+            s = np.linalg.norm(np.cross(d[k], d[rep]), axis=1)
+            assert s[group[k]] < 1e-12 and np.all(np.delete(s, group[k]) > 1e-3)
+    rock = random_block(np.random.default_rng(3), 10)
+    assert len(rock.edge_directions()[1]) == rock.n_edges
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_direction_candidates_find_the_same_plane(seed):
+    """Scoring each edge direction once (the production path) finds the plane that scoring every
+    edge finds, and both equal the exact SAT depth, on overlapping box pairs in random poses (where
+    edges are parallel in fours) and on random hulls."""
+    rng = np.random.default_rng(seed)
+    if seed % 2:
+        pi, pj = box(*rng.uniform(0.5, 1.5, 3)), box(*rng.uniform(0.5, 1.5, 3))
+    else:
+        pi, pj = random_block(rng, 8), random_block(rng, 10)
+    qi, qj = random_rotation(rng), random_rotation(rng)
+    L = min(pi.bounding_radius, pj.bounding_radius)
+    xj = place_at_gap(pi, qi, pj, qj, rng.normal(size=3), -rng.uniform(1e-3, 0.1) * L)
+    g = sat(pi, qi, np.zeros(3), pj, qj, xj)[0]
+    a = run_fcp(pi, qi, np.zeros(3), pj, qj, xj)
+    b = run_fcp(pi, qi, np.zeros(3), pj, qj, xj, by_direction=False)
+    assert abs(a["gap"] - b["gap"]) <= 1e-6 * L, (a["gap"], b["gap"])
+    assert abs(a["gap"] - g) <= 2e-5 * L, (a["gap"], g)
+    assert abs(a["normal"] @ b["normal"]) > 1 - 1e-6

@@ -105,7 +105,18 @@ def test_grid_broadphase_matches_all_pairs_and_flags_overflow():
     assert len(set1) > 10 and set1 == set2
     small = type(c_grid)(**{**c_grid.__dict__, "pair_capacity": len(set1) - 1})
     _, _, st3 = candidate_pairs(small, Xw, s_all.shape.vertex_mask)
-    assert int(st3) & Status.CONTACT_OVERFLOW
+    assert int(st3) == Status.CONTACT_OVERFLOW
+    # a grid cell holding more blocks than its capacity: its own bit, which the driver cures by
+    # doubling grid_cell_capacity (not the pair buffer)
+    from rockjax.driver import _grow
+    from rockjax.types import Config
+
+    crowded = type(c_grid)(**{**c_grid.__dict__, "grid_cell_capacity": 1, "grid_cell_size": 1.0})
+    _, _, st4 = candidate_pairs(crowded, Xw, s_all.shape.vertex_mask)
+    assert int(st4) & Status.BLOCK_CELL_OVERFLOW and Status.BLOCK_CELL_OVERFLOW & Status.growable()
+    grown, _ = _grow(Config(n_fluid=0, n_wall=0, dt=1e-4, grid=None, cutoff=0.0, skin=0.0, blocks=crowded), 8, None,
+                     int(st4))
+    assert grown.blocks.grid_cell_capacity == 2
 
 
 @pytest.mark.slow

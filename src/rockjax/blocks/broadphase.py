@@ -9,8 +9,8 @@ Owns ``aabbs`` and ``candidate_pairs`` (seed section 2):
   the 27 cells around its own (binary search in the sorted ids, ``grid_cell_capacity`` entries
   per cell).  Blocks larger than a cell (floors, slopes) are tested against every block.
 * The overlapping pairs are compacted into ``pair_capacity`` slots; more set
-  ``Status.CONTACT_OVERFLOW`` (never silently dropped) and so does a grid cell holding more than
-  its capacity.  When the static list fits in the buffer (ALL_PAIRS default) the pair order is
+  ``Status.CONTACT_OVERFLOW`` (never silently dropped); a grid cell holding more than its capacity
+  sets ``Status.BLOCK_CELL_OVERFLOW``.  The driver cures either by doubling that buffer.  When the static list fits in the buffer (ALL_PAIRS default) the pair order is
   fixed and no compaction is needed.
 """
 
@@ -128,7 +128,7 @@ def candidate_pairs(config: BlockConfig, Xw, vmask):
         cand_i.append(gi)
         cand_j.append(gj)
         cand_ok.append(ok)
-        status = status | jnp.where(over, Status.CONTACT_OVERFLOW.value, 0).astype(jnp.int32)
+        status = status | jnp.where(over, Status.BLOCK_CELL_OVERFLOW.value, 0).astype(jnp.int32)
     if not cand_i:
         return jnp.zeros((P, 2), jnp.int32), jnp.zeros(P, bool), status
     ci, cj, ok = (jnp.concatenate(c, 0) for c in (cand_i, cand_j, cand_ok))

@@ -13,7 +13,8 @@ Owns the search for the common plane (CP) of two blocks i and j, after Nezami et
   features at A and B (seed types a-d: the bisector of AB; face normals; cross products of an
   edge at A and an edge at B; the component of AB normal to an edge at A or B) plus the current
   plane, and keep the one with the largest gap (each candidate in its better orientation).
-  Keeping the current plane makes the gap non-decreasing.  "At A" means at every vertex of the
+  Keeping the current plane makes the gap non-decreasing.  Parallel edges give the same
+  candidates, so types c and d are built once per edge *direction* (``BlockShape.direction_edge``).  "At A" means at every vertex of the
   support set of i (ties within round-off: a whole face when n is a face normal), not one
   arbitrary vertex -- see ``_local_candidates``.
 * The search runs on stopped gradients; one last candidate round on the live geometry makes the
@@ -68,7 +69,18 @@ def _best(cands, valid, Xi, mi, Xj, mj):
     return cands[k] * sign[k], g[k]
 
 
-def _local_candidates(n, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, scale):
+def _by_direction(e, m, dirs):
+    """Edge vectors e [nE,3] with mask m [nE] -> one per direction group ``dirs = (edge_direction
+    [nE], direction_edge [nD], direction_mask [nD])``: [nD,3] (the representative edge's vector) and
+    [nD] (any member of the group in m).  ``dirs`` None: unchanged (every edge its own direction)."""
+    if dirs is None:
+        return e, m
+    group, rep, dm = dirs
+    member = group[None, :] == jnp.arange(rep.shape[0], dtype=group.dtype)[:, None]  # [nD, nE]
+    return e[rep], dm & jnp.any(member & m[None, :], -1)
+
+
+def _local_candidates(n, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, scale, dirs_i=None, dirs_j=None):
     """Seed candidate types a-d at the support features of the plane n, plus n itself (last).
 
     The "closest vertices" of the paper are generalised to the support SETS (all vertices
@@ -77,6 +89,8 @@ def _local_candidates(n, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, sca
     of random overlaps stall).  Candidates: every face normal of both blocks (cheap), the
     crosses of the edges touching the support set of i with those touching the support set of j
     (type c), the bisector of AB (type a) and AB minus its part along each such edge (type d).
+    Parallel edges give the same candidates, so with ``dirs_i`` / ``dirs_j`` (see ``_by_direction``)
+    types c and d are built once per edge direction: a box pair scores 29 candidates instead of 182.
     """
     pi = project(Xi, n)
     pj = project(Xj, n)
@@ -92,6 +106,8 @@ def _local_candidates(n, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, sca
     eb = Xj[ej[:, 1]] - Xj[ej[:, 0]]
     ma = emi & (set_i[ei[:, 0]] | set_i[ei[:, 1]])
     mb = emj & (set_j[ej[:, 0]] | set_j[ej[:, 1]])
+    ea, ma = _by_direction(ea, ma, dirs_i)
+    eb, mb = _by_direction(eb, mb, dirs_j)
     Ka, Kb = ea.shape[0], eb.shape[0]
     cr = jnp.cross(ea[:, None, :], eb[None, :, :]).reshape(Ka * Kb, 3)
     la = jnp.sum(ea * ea, -1)
@@ -113,7 +129,8 @@ def _local_candidates(n, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, sca
     return _normalise(cands, valid, 0.0)
 
 
-def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev, prev_valid, *, iterations: int):
+def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev, prev_valid, dirs_i=None, dirs_j=None,
+             *, iterations: int):
     """Common plane of blocks i and j.
 
     Args:
@@ -121,6 +138,9 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
       Ni, Nj: [F,3] world outward face normals; fmi, fmj: [F] face masks.
       ei, ej: [nE,2] edges (vertex pairs); emi, emj: [nE] edge masks.
       ci, cj: [3] centroids (m).  n_prev: [3] last plane normal (i -> j); prev_valid: [] bool.
+      dirs_i, dirs_j: the blocks' edge directions ``(edge_direction [nE], direction_edge [nD],
+        direction_mask [nD])`` (``BlockShape``), or None to treat every edge as its own direction
+        (the same plane, found with more candidates).
       iterations: fixed FCP iteration count (static).
     Returns:
       dict with ``normal`` [3] (unit, i -> j), ``gap`` [] m (min_j n.x - max_i n.x; < 0 overlap),
@@ -138,14 +158,14 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
 
     def body(_, carry):
         n, g, changes = carry
-        c, ok = _local_candidates(n, sXi, mi, sNi, fmi, ei, emi, sXj, mj, sNj, fmj, ej, emj, sscale)
+        c, ok = _local_candidates(n, sXi, mi, sNi, fmi, ei, emi, sXj, mj, sNj, fmj, ej, emj, sscale, dirs_i, dirs_j)
         n1, g1 = _best(c, ok, sXi, mi, sXj, mj)
         changes = changes + (g1 > g + 1e-7 * sscale).astype(jnp.int32)
         return n1, g1, changes
 
     n_s, _, changes = lax.fori_loop(0, iterations, body, (n0, g0, jnp.int32(0)))
     # differentiable last round on the live geometry (ties pick a geometric candidate, not n_s)
-    c, ok = _local_candidates(n_s, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, sscale)
+    c, ok = _local_candidates(n_s, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, sscale, dirs_i, dirs_j)
     n, _ = _best(c, ok, Xi, mi, Xj, mj)
     pi = project(Xi, n)
     pj = project(Xj, n)

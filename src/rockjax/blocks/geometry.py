@@ -311,6 +311,31 @@ class ConvexPolyhedron:
         """
         return self.he_edge[self.halfedges_around_vertex(v)]
 
+    def edge_directions(self) -> tuple[np.ndarray, np.ndarray]:
+        """Group the edges by direction (parallel or anti-parallel).
+
+        Two edges share a direction when the sine of their angle is at most 1e-9 (parallel to
+        round-off: a box has 3 directions for its 12 edges, a prism 1 + its base's). The common
+        plane's edge-edge candidates are cross products of directions, so each group is scored once.
+
+        Returns:
+          ``(group [nE] int32, representative [nD] int32)``: the direction index of each edge, and
+          for each direction its first edge (an index into ``edges``).
+        """
+        d = self.vertices[self.edges[:, 1]] - self.vertices[self.edges[:, 0]]
+        d = d / np.linalg.norm(d, axis=1, keepdims=True)
+        group = np.full(self.n_edges, -1, dtype=_INT)
+        reps: list[int] = []
+        for k in range(self.n_edges):
+            for g, r in enumerate(reps):
+                if np.linalg.norm(np.cross(d[k], d[r])) <= 1e-9:
+                    group[k] = g
+                    break
+            else:
+                group[k] = len(reps)
+                reps.append(k)
+        return group, np.asarray(reps, dtype=_INT)
+
     def face_halfedges(self, f: int) -> np.ndarray:
         """Half-edges of face ``f`` in loop order (walks ``he_next``).
 
@@ -976,6 +1001,10 @@ class PackedBlocks:
       halfedge_mask: [B, Emax] bool.
       edges: [B, nEmax, 2] undirected edges (vertex pairs).
       edge_mask: [B, nEmax] bool.
+      edge_direction: [B, nEmax] the direction group of each edge
+        (:meth:`ConvexPolyhedron.edge_directions`).
+      direction_edge: [B, nDmax] the representative edge of each direction.
+      direction_mask: [B, nDmax] bool.
       n_vertices, n_faces, n_halfedges, n_edges: [B] int32 true counts.
       volume: [B] (m^3).
       inertia_unit_density: [B, 3, 3] inertia about the centroid for unit
@@ -1000,6 +1029,9 @@ class PackedBlocks:
     halfedge_mask: np.ndarray
     edges: np.ndarray
     edge_mask: np.ndarray
+    edge_direction: np.ndarray
+    direction_edge: np.ndarray
+    direction_mask: np.ndarray
     n_vertices: np.ndarray
     n_faces: np.ndarray
     n_halfedges: np.ndarray
@@ -1034,6 +1066,11 @@ class PackedBlocks:
         """Padded edge count nEmax (= Emax // 2)."""
         return int(self.edges.shape[1])
 
+    @property
+    def max_directions(self) -> int:
+        """Padded edge-direction count nDmax."""
+        return int(self.direction_edge.shape[1])
+
 
 def pack(
     polyhedra: Sequence[ConvexPolyhedron],
@@ -1041,6 +1078,7 @@ def pack(
     max_vertices: int | None = None,
     max_faces: int | None = None,
     max_halfedges: int | None = None,
+    max_directions: int | None = None,
 ) -> PackedBlocks:
     """Pad several blocks to common array sizes.
 
@@ -1050,6 +1088,8 @@ def pack(
       max_faces: Fmax; default the largest ``n_faces``.
       max_halfedges: Emax; default the largest ``n_halfedges``.  The edge
         arrays are padded to ``nEmax = Emax // 2``.
+      max_directions: nDmax, edge directions (:meth:`ConvexPolyhedron.edge_directions`); default
+        the largest count.
 
     Returns:
       :class:`PackedBlocks`.
@@ -1086,6 +1126,8 @@ def pack(
     Fm = _size("max_faces", max_faces, nf)
     Em = _size("max_halfedges", max_halfedges, ne)
     Km = Em // 2
+    dirs = [p.edge_directions() for p in polys]
+    Dm = _size("max_directions", max_directions, [len(r) for _, r in dirs])
 
     def ipad(shape):
         return np.full(shape, PAD_INDEX, dtype=_INT)
@@ -1107,6 +1149,9 @@ def pack(
         halfedge_mask=np.zeros((B, Em), dtype=bool),
         edges=ipad((B, Km, 2)),
         edge_mask=np.zeros((B, Km), dtype=bool),
+        edge_direction=ipad((B, Km)),
+        direction_edge=ipad((B, Dm)),
+        direction_mask=np.zeros((B, Dm), dtype=bool),
         n_vertices=np.asarray(nv, dtype=_INT),
         n_faces=np.asarray(nf, dtype=_INT),
         n_halfedges=np.asarray(ne, dtype=_INT),
@@ -1130,4 +1175,8 @@ def pack(
         out["halfedge_mask"][b, :E] = True
         out["edges"][b, :K] = p.edges
         out["edge_mask"][b, :K] = True
+        group, rep = dirs[b]
+        out["edge_direction"][b, :K] = group
+        out["direction_edge"][b, :len(rep)] = rep
+        out["direction_mask"][b, :len(rep)] = True
     return PackedBlocks(**out)

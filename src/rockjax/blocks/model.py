@@ -92,6 +92,11 @@ class BlockConfig:
         points are gathered into this many slots before the O(slots^2) hull (a box pair has up to
         16; ``contact_slots`` is 161). More set ``Status.JOINT_PATCH_OVERFLOW``, which the driver
         cures by doubling it.
+      law_slots: the contact law runs over this many slots per pair, into which the pair's active
+        contact points are gathered (in slot order; their shear history stays in its own slot):
+        a box pair has up to 16 of its 161 ``contact_slots``. More set
+        ``Status.CONTACT_POINT_OVERFLOW``, which the driver cures by doubling it. 0, or >=
+        ``contact_slots``: the law runs over every slot.
       pair_segment: the narrow phase (FCP and contact points) runs over the pair buffer in
         segments of this many slots and skips a segment holding no overlapping pair (the broad
         phase compacts the pairs at the front of the buffer, so a half-empty buffer costs about
@@ -121,6 +126,7 @@ class BlockConfig:
     joint_aperture: float = 0.0
     joint_patch_points: int = 32
     pair_segment: int = 64
+    law_slots: int = 32
 
     def __post_init__(self):
         if len(self.motion) != self.n_blocks:
@@ -131,6 +137,8 @@ class BlockConfig:
             raise ValueError(f"BlockConfig.joint_patch_points must be >= 3 (got {self.joint_patch_points})")
         if self.fcp_iterations < 0:
             raise ValueError("BlockConfig.fcp_iterations must be >= 0")
+        if self.law_slots < 0:
+            raise ValueError(f"BlockConfig.law_slots must be >= 0 (got {self.law_slots})")
         if self.pair_segment < 0:
             raise ValueError(f"BlockConfig.pair_segment must be >= 0 (got {self.pair_segment})")
         if not (self.prescribed_ramp >= 0.0 and math.isfinite(self.prescribed_ramp)):
@@ -206,6 +214,9 @@ class BlockShape:
       vertices [B,V,3] m; vertex_mask [B,V] bool;
       face_normal [B,F,3] outward unit; face_offset [B,F] m (``n.x <= d`` inside); face_mask [B,F];
       edges [B,nE,2] int32 vertex pairs; edge_mask [B,nE];
+      edge_direction [B,nE] int32, the direction group of each edge; direction_edge [B,nD] int32, the
+      representative edge of each direction; direction_mask [B,nD] (parallel edges share a
+      direction: the FCP scores each direction once, ``geometry.ConvexPolyhedron.edge_directions``);
       he_vert, he_next, he_pair, he_face [B,E] int32; halfedge_mask [B,E];
       star_face [B,V,K] faces around each vertex; star_vertex [B,V,K] the other end of each edge
       leaving the vertex; star_mask [B,V,K] (from half-edge walks: seed section 4; kept for local
@@ -221,6 +232,9 @@ class BlockShape:
     face_mask: jax.Array
     edges: jax.Array
     edge_mask: jax.Array
+    edge_direction: jax.Array
+    direction_edge: jax.Array
+    direction_mask: jax.Array
     he_vert: jax.Array
     he_next: jax.Array
     he_pair: jax.Array
@@ -445,6 +459,7 @@ def make_blocks(
     joint_aperture: float = 0.0,
     joint_patch_points: int = 32,
     pair_segment: int = 64,
+    law_slots: int = 32,
 ):
     """Build ``(BlockConfig, BlockParams, BlockState)`` from convex polyhedra, validating every input.
 
@@ -478,7 +493,8 @@ def make_blocks(
       joint_water: block faces pressed together carry the hydrostatic pressure of a still water
         at ``joint_water_level`` (m, height along -gravity) of ``joint_water_density`` (kg/m^3,
         > 0); see ``blocks.joint_water``.  joint_aperture: m (>= 0), see :class:`BlockConfig`;
-        the broad-phase margin is raised to it.  joint_patch_points, pair_segment: see :class:`BlockConfig`.
+        the broad-phase margin is raised to it.  joint_patch_points, pair_segment, law_slots: see
+        :class:`BlockConfig`.
 
     Returns:
       ``(config, params, state)``; state arrays in float32 (float64 under ``jax_enable_x64``).
@@ -610,6 +626,7 @@ def make_blocks(
         joint_aperture=float(jw_ap),
         joint_patch_points=int(joint_patch_points),
         pair_segment=int(pair_segment),
+        law_slots=int(law_slots),
     )
 
     f = float_dtype()
@@ -626,6 +643,9 @@ def make_blocks(
         face_mask=jnp.asarray(packed.face_mask),
         edges=idx(packed.edges),
         edge_mask=jnp.asarray(packed.edge_mask),
+        edge_direction=idx(packed.edge_direction),
+        direction_edge=idx(packed.direction_edge),
+        direction_mask=jnp.asarray(packed.direction_mask),
         he_vert=idx(packed.he_vert),
         he_next=idx(packed.he_next),
         he_pair=idx(packed.he_pair),
