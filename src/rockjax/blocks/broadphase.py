@@ -6,8 +6,8 @@ Owns ``aabbs`` and ``candidate_pairs`` (seed section 2):
   against box.  Pairs of two non-dynamic blocks are never candidates.
 * GRID: blocks that fit in a cell are binned by the cell of their box centre in a uniform grid
   (cell ~ 1.5 x median block size; Nezami et al. 2004), sorted by cell id; each block looks at
-  the 27 cells around its own (binary search in the sorted ids, ``grid_cell_capacity`` entries
-  per cell).  Blocks larger than a cell (floors, slopes) are tested against every block.
+  its own cell and half of the 26 around it (the other half sees it; binary search in the sorted
+  ids, ``grid_cell_capacity`` entries per cell).  Blocks larger than a cell (floors, slopes) are tested against every block.
 * The overlapping pairs are compacted into ``pair_capacity`` slots; more set
   ``Status.CONTACT_OVERFLOW`` (never silently dropped); a grid cell holding more than its capacity
   sets ``Status.BLOCK_CELL_OVERFLOW``.  The driver cures either by doubling that buffer.  When the static list fits in the buffer (ALL_PAIRS default) the pair order is
@@ -25,6 +25,10 @@ from ..types import Status
 from .model import BlockConfig, Broadphase, Motion
 
 __all__ = ["aabbs", "candidate_pairs", "pairs_are_static"]
+
+
+#: the own cell first, then the 13 cell offsets that come after (0, 0, 0) in (z, y, x) order
+_HALF_SHELL = [(0, 0, 0)] + [o for o in itertools.product((-1, 0, 1), repeat=3) if o[::-1] > (0, 0, 0)]
 
 
 def aabbs(Xw, vmask, margin):
@@ -113,17 +117,20 @@ def candidate_pairs(config: BlockConfig, Xw, vmask):
         order = jnp.argsort(key)
         skey = key[order]
         cap = config.grid_cell_capacity
-        offs = jnp.asarray(list(itertools.product((-1, 0, 1), repeat=3)), jnp.int32)  # [27,3]
-        nkey = cid(rel[:, None, :] + offs[None, :, :])  # [ns,27]
+        # half shell: the own cell and the 13 neighbours whose offset is positive (lexicographically,
+        # z first), so each pair of blocks in different cells is met once, from the lower cell
+        offs = jnp.asarray(_HALF_SHELL, jnp.int32)  # [14,3]
+        nkey = cid(rel[:, None, :] + offs[None, :, :])  # [ns,14]
         start = jnp.searchsorted(skey, nkey, side="left")
         stop = jnp.searchsorted(skey, nkey, side="right")
         over = jnp.any(stop - start > cap)
-        slot = start[..., None] + jnp.arange(cap)  # [ns,27,cap]
+        slot = start[..., None] + jnp.arange(cap)  # [ns,14,cap]
         in_run = slot < stop[..., None]
         other = sm[order[jnp.clip(slot, 0, ns - 1)]]  # global index
         me = jnp.broadcast_to(sm[:, None, None], other.shape)
-        ok = in_run & (other > me) & (dyn[me] | dyn[other])
-        gi, gj = me.reshape(-1), other.reshape(-1)
+        own = (jnp.arange(offs.shape[0]) == 0)[None, :, None]  # offset (0, 0, 0) first
+        ok = in_run & ((other > me) | ~own & (other != me)) & (dyn[me] | dyn[other])
+        gi, gj = jnp.minimum(me, other).reshape(-1), jnp.maximum(me, other).reshape(-1)
         ok = ok.reshape(-1) & _overlap(lo, hi, gi, gj)
         cand_i.append(gi)
         cand_j.append(gj)
