@@ -365,9 +365,12 @@ def sec_blocks(doc: Doc):
                      m.get("block_steps_per_s"), m.get("ratio_rockjax_over_mujoco") or m.get("skipped")])
     doc.p(table(["blocks", "broad phase", "steps", "dt [s]", "block-steps/s", "contact evals/s", "contact points",
                  "status", "MuJoCo block-steps/s", "rockjax / MuJoCo"], rows))
-    ab = doc.records("bench_blocks_segments.jsonl",
-                     "python experiments/bench_blocks.py --sizes 100 1000 --ab-segments 0 64 --out ...")
-    ab = [r for r in ab or [] if r.get("bench") == "blocks_pair_segment_ab"]
+    def ab_records(name, cmd, bench):
+        return [r for r in doc.records(name, cmd) or [] if r.get("bench") == bench]
+
+    ab = ab_records("bench_blocks_segments.jsonl",
+                    "python experiments/bench_blocks.py --sizes 100 1000 --ab-segments 0 64 --out ...",
+                    "blocks_pair_segment_ab")
     if ab:
         doc.p("The narrow phase over the pair buffer in segments (`BlockConfig.pair_segment`, 64 slots; a segment "
               "holding no overlapping pair is skipped) against one pass over every slot (`pair_segment = 0`): "
@@ -376,9 +379,9 @@ def sec_blocks(doc: Doc):
                      "date"], [[r["n_blocks"], r["pair_capacity"], r["mean_pairs"], r["best_wall_s"].get("0"),
                                 r["best_wall_s"].get("64"), r["speedup_over_first"].get("64"), r.get("date")]
                                for r in ab]))
-    nab = doc.records("bench_blocks_narrow.jsonl",
-                      "python experiments/bench_blocks.py --ab-narrow --out experiments/results/bench_blocks_narrow.jsonl")
-    nab = [r for r in nab or [] if r.get("bench") == "blocks_narrow_ab"]
+    nab = ab_records("bench_blocks_narrow.jsonl",
+                     "python experiments/bench_blocks.py --ab-narrow --out experiments/results/bench_blocks_narrow.jsonl",
+                     "blocks_narrow_ab")
     if nab:
         doc.p("The FCP scoring each edge *direction* once (parallel edges give the same candidate planes: a "
               "box has 3 directions for 12 edges, so a box pair scores 29 candidates per round instead of 182) "
