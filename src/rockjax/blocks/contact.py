@@ -197,20 +197,22 @@ def _clipped_centre(X, e, em, N, D, fm):
 
 
 def _gather_active(points, active, k: int):
-    """The active points of each pair first, in ``k`` slots (``[P, k, 3]``, ``[P, k]``), and
-    whether a pair had more than ``k`` (then some are missing: an overflow, never silent)."""
-    if k >= active.shape[1]:
+    """The active points of each pair first, in ``k`` slots (``[P, k, 3]``, ``[P, k]``; zeros and
+    False after them), and whether a pair had more than ``k`` (then some are missing: an
+    overflow, never silent)."""
+    slot = _active_slots(active, k)
+    if slot is None:
         return points, active, jnp.zeros((), bool)
-    order = jnp.argsort(jnp.where(active, 0, 1), axis=1, stable=True)[:, :k]
     over = jnp.any(jnp.sum(active.astype(jnp.int32), 1) > k)
-    return (jnp.take_along_axis(points, order[..., None], 1), jnp.take_along_axis(active, order, 1), over)
+    return (jnp.take_along_axis(points, slot[..., None], 1, mode="fill", fill_value=0),
+            jnp.take_along_axis(active, slot, 1, mode="fill", fill_value=False), over)
 
 
 def _active_slots(active, k: int):
     """[S, k] int32: per pair, the indices of its active contact slots (in slot order), then the
-    out-of-bounds index (gathers fill it, scatters drop it); None when ``k`` is 0 or covers every slot (the law then runs over all of them).
-    A pair with more than ``k`` active slots loses some: ``contact_forces`` sets
-    ``Status.CONTACT_POINT_OVERFLOW`` for it and the driver reruns with ``law_slots`` doubled."""
+    out-of-bounds index (gathers fill it, scatters drop it); None when ``k`` is 0 or covers every
+    slot. A pair with more than ``k`` active slots loses some (the callers flag it: the law's
+    ``Status.CONTACT_POINT_OVERFLOW``, the joint patch's ``JOINT_PATCH_OVERFLOW``)."""
     S, n = active.shape
     if k <= 0 or k >= n:
         return None

@@ -324,15 +324,12 @@ class ConvexPolyhedron:
         """
         d = self.vertices[self.edges[:, 1]] - self.vertices[self.edges[:, 0]]
         d = d / np.linalg.norm(d, axis=1, keepdims=True)
+        parallel = np.linalg.norm(np.cross(d[:, None, :], d[None, :, :]), axis=-1) <= 1e-9  # [nE, nE]
         group = np.full(self.n_edges, -1, dtype=_INT)
         reps: list[int] = []
         for k in range(self.n_edges):
-            for g, r in enumerate(reps):
-                if np.linalg.norm(np.cross(d[k], d[r])) <= 1e-9:
-                    group[k] = g
-                    break
-            else:
-                group[k] = len(reps)
+            if group[k] < 0:  # the first edge of a new direction: it and the later edges parallel to it
+                group[parallel[k] & (group < 0)] = len(reps)
                 reps.append(k)
         return group, np.asarray(reps, dtype=_INT)
 
