@@ -47,7 +47,8 @@ def padded(poly: ConvexPolyhedron):
         return np.where(a < 0, 0, a)
 
     return dict(V=pk.vertices[0], vm=pk.vertex_mask[0], N=pk.face_normal[0], D=pk.face_offset[0],
-                fm=pk.face_mask[0], sf=sf, sv=sv, sm=sm, e=idx(pk.edges[0]), em=pk.edge_mask[0], r=pk.bounding_radius[0],
+                fm=pk.face_mask[0], sf=sf, sv=sv, sm=sm, e=idx(pk.edges[0]), em=pk.edge_mask[0],
+                r=pk.bounding_radius[0],
                 dirs=(idx(pk.edge_direction[0]), idx(pk.direction_edge[0]), pk.direction_mask[0]))
 
 

@@ -134,7 +134,8 @@ def test_law_slots_overflow_flagged_and_grown(x64):
     out = {}
     for k in (0, 8, 2):
         cfg, par, st = make_blocks(shapes, law_slots=k, **kw)
-        F, T, _, status, info = jax.jit(lambda s, c=cfg, p=par: rb.contact_forces(s, p, c, dt=1e-4, return_info=True))(st)
+        forces = jax.jit(lambda s, c=cfg, p=par: rb.contact_forces(s, p, c, dt=1e-4, return_info=True))
+        F, T, _, status, info = forces(st)
         out[k] = (np.asarray(F), np.asarray(T), int(status), int(np.asarray(info["active"]).sum()))
     assert out[0][2] == 0 and out[8][2] == 0
     assert 2 < out[0][3] <= 8, out[0][3]

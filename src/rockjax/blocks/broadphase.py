@@ -7,11 +7,13 @@ Owns ``aabbs`` and ``candidate_pairs`` (seed section 2):
 * GRID: blocks that fit in a cell are binned by the cell of their box centre in a uniform grid
   (cell ~ 1.5 x median block size; Nezami et al. 2004), sorted by cell id; each block looks at
   its own cell and half of the 26 around it (the other half sees it; binary search in the sorted
-  ids, ``grid_cell_capacity`` entries per cell).  Blocks larger than a cell (floors, slopes) are tested against every block.
+  ids, ``grid_cell_capacity`` entries per cell).  Blocks larger than a cell (floors, slopes) are
+  tested against every block.
 * The overlapping pairs are compacted into ``pair_capacity`` slots; more set
   ``Status.CONTACT_OVERFLOW`` (never silently dropped); a grid cell holding more than its capacity
-  sets ``Status.BLOCK_CELL_OVERFLOW``.  The driver cures either by doubling that buffer.  When the static list fits in the buffer (ALL_PAIRS default) the pair order is
-  fixed and no compaction is needed.
+  sets ``Status.BLOCK_CELL_OVERFLOW``.  The driver cures either by doubling that buffer.  When the
+  static list fits in the buffer (ALL_PAIRS default) the pair order is fixed and no compaction is
+  needed.
 """
 
 from __future__ import annotations
@@ -129,7 +131,7 @@ def candidate_pairs(config: BlockConfig, Xw, vmask):
         other = sm[order[jnp.clip(slot, 0, ns - 1)]]  # global index
         me = jnp.broadcast_to(sm[:, None, None], other.shape)
         own = (jnp.arange(offs.shape[0]) == 0)[None, :, None]  # offset (0, 0, 0) first
-        ok = in_run & ((other > me) | ~own & (other != me)) & (dyn[me] | dyn[other])
+        ok = in_run & ((other > me) | (~own & (other != me))) & (dyn[me] | dyn[other])
         gi, gj = jnp.minimum(me, other).reshape(-1), jnp.maximum(me, other).reshape(-1)
         ok = ok.reshape(-1) & _overlap(lo, hi, gi, gj)
         cand_i.append(gi)

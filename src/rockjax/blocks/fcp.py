@@ -14,9 +14,9 @@ Owns the search for the common plane (CP) of two blocks i and j, after Nezami et
   edge at A and an edge at B; the component of AB normal to an edge at A or B) plus the current
   plane, and keep the one with the largest gap (each candidate in its better orientation).
   Keeping the current plane makes the gap non-decreasing.  Parallel edges give the same
-  candidates, so types c and d are built once per edge *direction* (``BlockShape.direction_edge``).  "At A" means at every vertex of the
-  support set of i (ties within round-off: a whole face when n is a face normal), not one
-  arbitrary vertex -- see ``_local_candidates``.
+  candidates, so types c and d are built once per edge *direction* (``BlockShape.direction_edge``).
+  "At A" means at every vertex of the support set of i (ties within round-off: a whole face when
+  n is a face normal), not one arbitrary vertex -- see ``_local_candidates``.
 * The search runs on stopped gradients; one last candidate round on the live geometry makes the
   chosen normal differentiable with respect to the block poses.
 
