@@ -182,3 +182,40 @@ def test_direction_candidates_find_the_same_plane(seed):
     assert abs(a["gap"] - b["gap"]) <= 1e-6 * L, (a["gap"], b["gap"])
     assert abs(a["gap"] - g) <= 2e-5 * L, (a["gap"], g)
     assert abs(a["normal"] @ b["normal"]) > 1 - 1e-6
+
+
+def test_box_pairs_start_from_every_separating_axis(x64):
+    """Blocks with few edge directions (boxes: 3, ``fcp.sat_start``) run no FCP iteration in
+    ``contact_forces`` (without joint water): their start holds every face normal and every cross
+    product of two edge directions, i.e. every separating axis, so an overlapping pair's plane is
+    the exact minimum-penetration plane from the start. Checked against the float64 SAT on random
+    overlapping box pairs; random hulls (one direction per edge) keep the iterations."""
+    from rockjax.blocks import Motion, make_blocks
+    from rockjax.blocks.contact import contact_forces
+    from rockjax.blocks.fcp import sat_start
+
+    assert sat_start(3) and not sat_start(30)
+    forces = jax.jit(contact_forces, static_argnames=("config", "return_info"))
+    rng = np.random.default_rng(11)
+    # first the crossed-edges case of test_structured_contacts: its axis is no face normal (the
+    # faces-only start of an FCP with no iteration misses it), then random poses
+    crossed = (box(1.0, 1.0, 1.0), _pose((1, 0, 0), np.pi / 4), box(0.6, 0.6, 0.6), _pose((0, 1, 0), np.pi / 4),
+               np.array([0.0, 0.0, np.sqrt(2) * 0.8 - 1e-3]))
+    for k in range(7):
+        if k == 0:
+            pi, qi, pj, qj, xj = crossed
+        else:
+            pi, pj = box(*rng.uniform(0.5, 1.5, 3)), box(*rng.uniform(0.5, 1.5, 3))
+            qi, qj = random_rotation(rng), random_rotation(rng)
+            xj = place_at_gap(pi, qi, pj, qj, rng.normal(size=3),
+                              -rng.uniform(1e-3, 0.1) * min(pi.bounding_radius, pj.bounding_radius))
+        L = min(pi.bounding_radius, pj.bounding_radius)
+        g, axis, second = sat(pi, qi, np.zeros(3), pj, qj, xj)
+        cfg, par, st = make_blocks([pi, pj], positions=np.stack([np.zeros(3), xj]), orientations=np.stack([qi, qj]),
+                                   motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6, aabb_margin=0.01)
+        info = forces(st, par, config=cfg, dt=1e-4, return_info=True)[4]
+        assert bool(info["pair_mask"][0])
+        assert int(info["fcp_changes"][0]) == 0  # no iteration ran
+        assert abs(float(info["gap"][0]) - g) <= 1e-9 * L, (float(info["gap"][0]), g)
+        if second < g - 1e-3 * L:  # unique minimum-penetration axis
+            assert abs(float(np.asarray(info["normal"][0]) @ axis)) > 1 - 1e-9

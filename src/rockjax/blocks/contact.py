@@ -54,7 +54,7 @@ import jax.numpy as jnp
 
 from ..types import Status, _pytree_dataclass
 from .broadphase import candidate_pairs, pairs_are_static
-from .fcp import fcp_pair
+from .fcp import fcp_pair, sat_start
 from .joint_water import joint_water_load
 from .model import BlockConfig, BlockParams, BlockState, Motion, block_mass, world_planes, world_vertices
 from .rotation import project, safe_norm
@@ -312,10 +312,15 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
             raise ValueError("contact_forces: config.joint_water needs gravity=")
         gvec = jnp.asarray(gravity, f)
 
+    # blocks with few edge directions (boxes, prisms) start the FCP from every separating axis: an
+    # overlapping pair's plane is then exact without iterations, and only the joint water's fade
+    # reads a separated pair's gap (which the iterations may still raise)
+    iterations = 0 if sat_start(sh.direction_edge.shape[1]) and not config.joint_water else config.fcp_iterations
+
     def pair_forces(i, j, mask, plane, plane_valid, shear, slot_active):
         """FCP, contact points and the contact law of the pairs (i, j) [S] (a segment of the
         buffer): per-pair forces on j and torques on i and j, the new shear history, diagnostics."""
-        fcp = jax.vmap(lambda *a: fcp_pair(*a, iterations=config.fcp_iterations))(
+        fcp = jax.vmap(lambda *a: fcp_pair(*a, iterations=iterations))(
             Xw[i], sh.vertex_mask[i], Nw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i],
             Xw[j], sh.vertex_mask[j], Nw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j],
             state.x[i], state.x[j], plane, plane_valid,

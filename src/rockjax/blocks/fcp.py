@@ -30,7 +30,7 @@ from jax import lax
 
 from .rotation import project
 
-__all__ = ["fcp_pair", "gap_along"]
+__all__ = ["fcp_pair", "gap_along", "sat_start", "SAT_START_LIMIT"]
 
 _BIG = 1e30
 
@@ -129,6 +129,16 @@ def _local_candidates(n, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, sca
     return _normalise(cands, valid, 0.0)
 
 
+#: the start holds every cross product of two edge directions (with the face normals: every
+#: separating axis) when the padded direction counts multiply to at most this (boxes: 3 x 3)
+SAT_START_LIMIT = 64
+
+
+def sat_start(n_directions: int) -> bool:
+    """Whether blocks padded to ``n_directions`` edge directions get the complete start."""
+    return n_directions * n_directions <= SAT_START_LIMIT
+
+
 def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev, prev_valid, dirs_i=None, dirs_j=None,
              *, iterations: int):
     """Common plane of blocks i and j.
@@ -140,7 +150,11 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
       ci, cj: [3] centroids (m).  n_prev: [3] last plane normal (i -> j); prev_valid: [] bool.
       dirs_i, dirs_j: the blocks' edge directions ``(edge_direction [nE], direction_edge [nD],
         direction_mask [nD])`` (``BlockShape``), or None to treat every edge as its own direction
-        (the same plane, found with more candidates).
+        (the same plane, found with more candidates). With directions and ``sat_start`` of their
+        count, the start also holds every cross product of a direction of i and one of j: with the
+        face normals, every separating axis, so for an overlapping pair the start is already the
+        minimum-penetration plane and the iterations keep it (a separated pair's gap may still
+        grow with them: the largest gap is not always along a separating axis).
       iterations: fixed FCP iteration count (static).
     Returns:
       dict with ``normal`` [3] (unit, i -> j), ``gap`` [] m (min_j n.x - max_i n.x; < 0 overlap),
@@ -151,9 +165,17 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
     sg = lax.stop_gradient
     sXi, sXj, sNi, sNj, sscale = sg(Xi), sg(Xj), sg(Ni), sg(Nj), sg(scale)
     cdir = sg(cj - ci)
-    init = jnp.concatenate([sNi, -sNj, cdir[None], sg(n_prev)[None]], 0)
-    init_ok = jnp.concatenate([fmi, fmj, jnp.ones(1, bool), jnp.reshape(prev_valid, (1,))], 0)
-    init, init_ok = _normalise(init, init_ok, 1e-30)
+    init = [sNi, -sNj, cdir[None], sg(n_prev)[None]]
+    init_ok = [fmi, fmj, jnp.ones(1, bool), jnp.reshape(prev_valid, (1,))]
+    if dirs_i is not None and dirs_j is not None and sat_start(max(dirs_i[1].shape[0], dirs_j[1].shape[0])):
+        da = sXi[ei[dirs_i[1], 1]] - sXi[ei[dirs_i[1], 0]]  # [nD, 3]
+        db = sXj[ej[dirs_j[1], 1]] - sXj[ej[dirs_j[1], 0]]
+        cr = jnp.cross(da[:, None, :], db[None, :, :]).reshape(-1, 3)
+        s_cr = jnp.sum(cr * cr, -1)
+        ref = (jnp.sum(da * da, -1)[:, None] * jnp.sum(db * db, -1)[None, :]).reshape(-1)
+        init.append(cr)
+        init_ok.append((dirs_i[2][:, None] & dirs_j[2][None, :]).reshape(-1) & (s_cr > 1e-10 * ref))
+    init, init_ok = _normalise(jnp.concatenate(init, 0), jnp.concatenate(init_ok, 0), 1e-30)
     n0, g0 = _best(init, init_ok, sXi, mi, sXj, mj)
 
     def body(_, carry):

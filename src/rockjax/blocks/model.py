@@ -70,7 +70,10 @@ class BlockConfig:
       motion: per-block :class:`Motion`.
       pair_capacity: P, the candidate-pair buffer; more overlapping AABB pairs set
         ``Status.CONTACT_OVERFLOW`` (never silently dropped: grow with :func:`resize_pairs`).
-      fcp_iterations: fixed number of Fast Common Plane iterations per pair and step.
+      fcp_iterations: fixed number of Fast Common Plane iterations per pair and step. Not run
+        for blocks with at most 8 edge directions each (boxes, prisms of up to 7 sides:
+        ``fcp.sat_start``) without joint water: their start holds every separating axis, so an
+        overlapping pair's plane is exact from the start.
       broadphase: :class:`Broadphase`.
       prescribed_direction: per block unit 3-vector of the piston motion ((0,0,0) if not PRESCRIBED).
       prescribed_ramp: s, soft start of the piston: the amplitude grows as
