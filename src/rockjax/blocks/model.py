@@ -80,7 +80,8 @@ class BlockConfig:
         ``(1 - cos(pi t / ramp)) / 2`` over the first ``ramp`` seconds (0: full amplitude at t = 0).
       aabb_margin: m, added to every AABB half-size in the broad phase.
       grid_cell_size: m, uniform-grid cell (GRID; default 1.5 x median block size, seed section 2).
-      grid_cell_capacity: most blocks per grid cell (GRID); more set CONTACT_OVERFLOW.
+      grid_cell_capacity: most blocks per grid cell (GRID); more set BLOCK_CELL_OVERFLOW (the
+        driver doubles it).
       large_blocks: blocks bigger than a grid cell (GRID): tested against every block directly.
       edge_contacts: also use edge-edge crossings as contact points (default True; they cost
         max_edges^2 slots per pair, 144 for boxes).
