@@ -83,6 +83,7 @@ def test_segments_skip_and_match_one_pass(scene):
         np.testing.assert_allclose(np.asarray(seg_out[4][k]), np.asarray(one_out[4][k]), rtol=1e-12, atol=1e-12)
 
 
+@pytest.mark.slow  # ~60 s of compiles (two rollouts, two gradients, a vmap): the slow suite, run in CI
 def test_segmented_rollout_grad_and_vmap(scene):
     cfg, par, st = scene
     one = dataclasses.replace(cfg, pair_segment=0, law_slots=0)
