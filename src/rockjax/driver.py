@@ -149,17 +149,18 @@ def _round8(n: float) -> int:
 def _grow(config: Config, period: int, state: State, bits: int) -> tuple[Config, int]:
     """Capacities grown for the overflow bits; the forced-rebuild period halved for a stale list."""
     changes = {}
+    b = config.blocks
+    grown = {}  # BlockConfig fields
     if bits & Status.CONTACT_OVERFLOW:
-        changes["blocks"] = dataclasses.replace(config.blocks, pair_capacity=_round8(2 * config.blocks.pair_capacity))
+        grown["pair_capacity"] = _round8(2 * b.pair_capacity)
     if bits & Status.JOINT_PATCH_OVERFLOW:
-        changes["blocks"] = dataclasses.replace(changes.get("blocks", config.blocks),
-                                                joint_patch_points=2 * config.blocks.joint_patch_points)
+        grown["joint_patch_points"] = 2 * b.joint_patch_points
     if bits & Status.BLOCK_CELL_OVERFLOW:
-        b = changes.get("blocks", config.blocks)
-        changes["blocks"] = dataclasses.replace(b, grid_cell_capacity=2 * b.grid_cell_capacity)
+        grown["grid_cell_capacity"] = 2 * b.grid_cell_capacity
     if bits & Status.CONTACT_POINT_OVERFLOW:
-        b = changes.get("blocks", config.blocks)
-        changes["blocks"] = dataclasses.replace(b, law_slots=min(2 * b.law_slots, b.contact_slots))
+        grown["law_slots"] = min(2 * b.law_slots, b.contact_slots)
+    if grown:
+        changes["blocks"] = dataclasses.replace(b, **grown)
     if bits & Status.NEIGHBOUR_OVERFLOW:
         changes["neighbour_capacity"] = max(_round8(1.2 * int(state.nbrs.max_count)), config.neighbour_capacity + 8)
     if bits & Status.CELL_OVERFLOW:

@@ -196,23 +196,19 @@ def _clipped_centre(X, e, em, N, D, fm):
     return jnp.sum(w * (p0 + p1), 0), 2.0 * jnp.sum(w)
 
 
-def _gather_active(points, active, k: int):
-    """The active points of each pair first, in ``k`` slots (``[P, k, 3]``, ``[P, k]``; zeros and
-    False after them), and whether a pair had more than ``k`` (then some are missing: an
-    overflow, never silent)."""
-    slot = _active_slots(active, k)
+def _take_slots(a, slot):
+    """``a`` [S, n, ...] at the slots ``slot`` [S, k] (``_active_slots``): [S, k, ...], zeros (False)
+    where the index is out of bounds; ``a`` itself when ``slot`` is None."""
     if slot is None:
-        return points, active, jnp.zeros((), bool)
-    over = jnp.any(jnp.sum(active.astype(jnp.int32), 1) > k)
-    return (jnp.take_along_axis(points, slot[..., None], 1, mode="fill", fill_value=0),
-            jnp.take_along_axis(active, slot, 1, mode="fill", fill_value=False), over)
+        return a
+    return jnp.take_along_axis(a, slot.reshape(slot.shape + (1,) * (a.ndim - 2)), 1, mode="fill", fill_value=0)
 
 
 def _active_slots(active, k: int):
     """[S, k] int32: per pair, the indices of its active contact slots (in slot order), then the
     out-of-bounds index (gathers fill it, scatters drop it); None when ``k`` is 0 or covers every
-    slot. A pair with more than ``k`` active slots loses some (the callers flag it: the law's
-    ``Status.CONTACT_POINT_OVERFLOW``, the joint patch's ``JOINT_PATCH_OVERFLOW``)."""
+    slot. A pair with more than ``k`` active slots loses some (``contact_forces`` flags it: the
+    law's ``Status.CONTACT_POINT_OVERFLOW``, the joint patch's ``JOINT_PATCH_OVERFLOW``)."""
     S, n = active.shape
     if k <= 0 or k >= n:
         return None
@@ -344,10 +340,8 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
         n_points = jnp.sum(active_all.astype(jnp.int32), 1)
         # the law runs over the pair's active slots only (gathered to the front, in slot order)
         slot = _active_slots(active_all, config.law_slots)
-        pts, depth, active, shear, slot_active = (
-            a if slot is None else jnp.take_along_axis(a, slot.reshape(slot.shape + (1,) * (a.ndim - 2)), 1,
-                                                       mode="fill", fill_value=0)
-            for a in (pts_all, depth_all, active_all, shear, slot_active))
+        pts, depth, active, shear, slot_active = (_take_slots(a, slot)
+                                                  for a in (pts_all, depth_all, active_all, shear, slot_active))
 
         # ---- contact law ----
         m_red = 1.0 / jnp.maximum(inv_m[i] + inv_m[j], 1e-30)  # [S]
@@ -401,7 +395,8 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
             else:
                 wpts, wact, fade = pts_all, active_all, jnp.ones_like(fcp["gap"])
             n_wact = jnp.sum(wact.astype(jnp.int32), 1)
-            wpts, wact, _ = _gather_active(wpts, wact, config.joint_patch_points)
+            patch = _active_slots(wact, config.joint_patch_points)  # overflow flagged below
+            wpts, wact = _take_slots(wpts, patch), _take_slots(wact, patch)
             Fw, fw, mw = jax.vmap(lambda *a: joint_water_load(
                 *a, level=params.joint_water_level, density=params.joint_water_density, gravity=gvec))(
                     wpts, wact, n, t1, t2)
