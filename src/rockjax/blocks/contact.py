@@ -130,14 +130,14 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
     act = [aj, ai]
     if edge_contacts:
         t1, t2 = _tangent_basis(n)
-        a0, a1 = Xi[ei[:, 0]], Xi[ei[:, 1]]
-        b0, b1 = Xj[ej[:, 0]], Xj[ej[:, 1]]
+        a0, dA3 = Xi[ei[:, 0]], Xi[ei[:, 1]] - Xi[ei[:, 0]]
+        b0, dB3 = Xj[ej[:, 0]], Xj[ej[:, 1]] - Xj[ej[:, 0]]
 
         def p2(x):
             return jnp.stack([project(x, t1), project(x, t2)], -1)
 
-        A0, dA = p2(a0), p2(a1 - a0)
-        B0, dB = p2(b0), p2(b1 - b0)
+        A0, dA = p2(a0), p2(dA3)
+        B0, dB = p2(b0), p2(dB3)
 
         def cross2(u, w):
             return u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0]
@@ -152,11 +152,17 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
         u = cross2(w, dA[:, None, :]) / den_s
         eps = 1e-3
         ok = ok & (s > eps) & (s < 1 - eps) & (u > eps) & (u < 1 - eps)
-        p = a0[:, None, :] + s[..., None] * (a1 - a0)[:, None, :]
-        q = b0[None, :, :] + u[..., None] * (b1 - b0)[None, :, :]
-        de = project(p - q, n)
-        ok = ok & (de > -2.0 * slack) & _inside(p, Nj, Dj, fmj, tol_j) & _inside(q, Ni, Di, fmi, tol_i)
-        pts.append((0.5 * (p + q)).reshape(-1, 3))
+        # the crossing point of i's edge a0 + s dA3 lies inside j where s is within the edge's
+        # interval inside j's planes (per edge, not per crossing), and likewise for j's edge
+        lo_i, hi_i = _inside_interval(a0, dA3, Nj, Dj, fmj, tol_j)
+        lo_j, hi_j = _inside_interval(b0, dB3, Ni, Di, fmi, tol_i)
+        ok = ok & (s >= lo_i[:, None]) & (s <= hi_i[:, None]) & (u >= lo_j[None, :]) & (u <= hi_j[None, :])
+        # depth n.(p - q) from per-edge projections on n
+        de = (project(a0, n)[:, None] + s * project(dA3, n)[:, None]
+              - project(b0, n)[None, :] - u * project(dB3, n)[None, :])
+        ok = ok & (de > -2.0 * slack)
+        mid = 0.5 * (a0[:, None, :] + s[..., None] * dA3[:, None, :] + b0[None, :, :] + u[..., None] * dB3[None, :, :])
+        pts.append(mid.reshape(-1, 3))
         dep.append(de.reshape(-1))
         act.append(ok.reshape(-1))
     # fallback slot: an overlap (gap < 0) with none of the points above -- an edge passing through
@@ -174,6 +180,20 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
     depth = jnp.concatenate(dep, 0)
     active = jnp.concatenate(act, 0)
     return points, jnp.where(active, depth, 0.0), active
+
+
+def _inside_interval(x0, d, N, D, fm, tol):
+    """The parameters t for which the points ``x0 + t d`` of each edge (x0, d [nE,3]) lie inside
+    the planes N [F,3], D [F] within ``tol`` (``N.x - D <= tol``, as :func:`_inside`): ``(lo, hi)``
+    [nE], empty (lo > hi) where none does. Faces parallel to the edge bound it only through its
+    start point."""
+    al = project(x0, N) - D - tol  # [nE, F]: inside while al + t be <= 0
+    be = project(d, N)
+    t = -al / jnp.where(be != 0, be, 1.0)
+    hi = jnp.min(jnp.where(fm & (be > 0), t, jnp.inf), -1)
+    lo = jnp.max(jnp.where(fm & (be < 0), t, -jnp.inf), -1)
+    out = jnp.any(fm & (be == 0) & (al > 0), -1)
+    return jnp.where(out, jnp.inf, lo), hi
 
 
 def _clipped_centre(X, e, em, N, D, fm):
