@@ -82,7 +82,8 @@ def _pose(axis=(1, 0, 0), angle=0.0):
 I4 = np.array([1.0, 0, 0, 0])
 
 
-@pytest.mark.parametrize("case", ["face-face", "edge-edge", "vertex-face", "parallel-edges", "touching"])
+@pytest.mark.parametrize("case", ["face-face", "edge-edge", "vertex-face", "parallel-edges", "crossed-squares",
+                                  "touching"])
 def test_structured_contacts(case):
     a, b = box(1.0, 1.0, 1.0), box(0.6, 0.6, 0.6)
     d = 1e-3
@@ -105,6 +106,12 @@ def test_structured_contacts(case):
         qi = qj = _pose((1, 0, 0), np.pi / 4)
         xj = np.array([0.1, 0.0, np.sqrt(2) * 0.5 + np.sqrt(2) * 0.3 - d])
         n_exp, depth_exp, n_pts = None, d / np.sqrt(2), None
+    elif case == "crossed-squares":  # a unit cube on a, turned 45 deg about z: no corner of either is
+        # inside the other; the contact octagon's 8 corners are edge-edge crossings, at
+        # (+-0.5, +-(sqrt(1/2) - 0.5)) and (+-(sqrt(1/2) - 0.5), +-0.5)
+        b = box(1.0, 1.0, 1.0)
+        qi, qj, xj = I4, _pose((0, 0, 1), np.pi / 4), np.array([0.0, 0.0, 1.0 - d])
+        n_exp, depth_exp, n_pts = np.array([0, 0, 1.0]), d, 8
     else:  # touching: b rests exactly on a (zero overlap)
         qi, qj, xj = I4, I4, np.array([0.1, -0.1, 0.8])
         n_exp, depth_exp, n_pts = np.array([0, 0, 1.0]), 0.0, 0
@@ -126,6 +133,13 @@ def test_structured_contacts(case):
         assert act.sum() >= 2
         np.testing.assert_allclose(np.sort(np.unique(np.round(o["points"][act, 0], 4))), [-0.2, 0.4], atol=1e-4)
         np.testing.assert_allclose(o["depth"][act], d / np.sqrt(2), atol=2e-6)
+    if case == "crossed-squares":
+        c = np.sqrt(0.5) - 0.5
+        expect = sorted([(sx * 0.5, sy * c) for sx in (-1, 1) for sy in (-1, 1)]
+                        + [(sx * c, sy * 0.5) for sx in (-1, 1) for sy in (-1, 1)])
+        got = sorted(map(tuple, np.round(o["points"][act, :2], 6)))
+        np.testing.assert_allclose(got, expect, atol=1e-5)
+        np.testing.assert_allclose(o["points"][act, 2], 0.5 - d / 2, atol=1e-5)  # mid-way through the overlap
 
 
 @pytest.mark.slow
@@ -219,3 +233,32 @@ def test_box_pairs_start_from_every_separating_axis(x64):
         assert abs(float(info["gap"][0]) - g) <= 1e-9 * L, (float(info["gap"][0]), g)
         if second < g - 1e-3 * L:  # unique minimum-penetration axis
             assert abs(float(np.asarray(info["normal"][0]) @ axis)) > 1 - 1e-9
+
+
+def test_inside_interval_matches_the_point_test(x64):
+    """The edge-crossing test reads, per edge, the interval of its parameter inside the other block
+    (``contact._inside_interval``); it must agree with the face-plane test of the points
+    themselves (``contact._inside``), including edges lying in or parallel to a face plane."""
+    from rockjax.blocks.contact import _inside, _inside_interval
+
+    rng = np.random.default_rng(11)
+    t = np.linspace(-0.2, 1.2, 141)
+    for case in range(12):
+        poly = box(1.0, 0.8, 0.6) if case % 3 == 0 else random_block(rng, 9, 1.3)
+        N = jnp.asarray(poly.face_normal, jnp.float64)
+        D = jnp.asarray(poly.face_offset, jnp.float64)
+        fm = jnp.ones(N.shape[0], bool)
+        x0 = rng.normal(size=(40, 3)) * 0.6
+        d = rng.normal(size=(40, 3)) * 0.8
+        if case % 3 == 0:  # box: edges in a face plane (z = 0.3) and parallel to faces
+            x0[:10, 2] = 0.3
+            d[:10, 2] = 0.0
+            d[10:20, :2] = 0.0
+        tol = 1e-4
+        lo, hi = (np.asarray(a) for a in _inside_interval(jnp.asarray(x0), jnp.asarray(d), N, D, fm, tol))
+        pts = x0[:, None, :] + t[None, :, None] * d[:, None, :]
+        inside = np.asarray(_inside(jnp.asarray(pts), N, D, fm, tol))
+        by_interval = (t[None, :] >= lo[:, None]) & (t[None, :] <= hi[:, None])
+        near = (np.abs(t[None, :] - lo[:, None]) < 1e-9) | (np.abs(t[None, :] - hi[:, None]) < 1e-9)
+        assert np.all((inside == by_interval) | near), case
+        assert inside.any() and (~inside).any()  # both outcomes exercised
