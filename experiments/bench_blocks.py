@@ -5,9 +5,12 @@ MuJoCo's CPU simulator as a reference ratio.  Prints JSON lines.
     .venv/bin/python experiments/bench_blocks.py [--sizes 10 100 1000] [--steps 200] [--out FILE.jsonl]
     .venv/bin/python experiments/bench_blocks.py --sizes 100 --ab-segments 0 64   # segmented narrow phase vs one pass
     .venv/bin/python experiments/bench_blocks.py --ab-narrow   # FCP per edge direction / law over active slots, A/B
+    .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-crossing 0 8   # crossings among selected edges
 
 Pile: N boxes (0.18-0.2 m, 2650 kg/m^3) stacked ~4 high in columns in contact on a fixed floor
-slab, with 2 mm lateral jitter (no initial overlap); k_n = 1e7 N/m, dt = stable_dt.  Timed
+slab, with 2 mm lateral jitter (no initial overlap); ``--shape rock``: the same columns of rocks
+instead, each the convex hull of 12 random points near a sphere (~30 edges, no parallel ones),
+scaled to 0.19 m, dropped from just above the one below (MuJoCo runs the box pile only); k_n = 1e7 N/m, dt = stable_dt.  Timed
 after one warm-up chunk (compile excluded).  "contact_evals" counts narrow-phase pair evaluations
 (the pair buffer entries whose boxes overlap), "contact_points" the active contact points.
 """
@@ -26,13 +29,28 @@ import numpy as np
 
 import rockjax.blocks as rb
 from jsonl_out import emit
-from rockjax.blocks import Broadphase, Motion, box, make_blocks, slab
+from rockjax.blocks import Broadphase, ConvexPolyhedron, Motion, box, make_blocks, slab
 from rockjax.types import Status
 
 
-def pile(n, seed=0):
+def rock(rng, size=0.19, n_points=12):
+    """A random convex rock: the hull of ``n_points`` points near a sphere, scaled to ``size`` (m)."""
+    while True:
+        p = rng.normal(size=(n_points, 3))
+        p *= rng.uniform(0.7, 1.0, (n_points, 1)) / np.linalg.norm(p, axis=1, keepdims=True)
+        try:
+            hull = ConvexPolyhedron.from_vertices(p)
+        except ValueError:
+            continue
+        return ConvexPolyhedron.from_vertices(hull.vertices * (size / np.ptp(hull.vertices, axis=0).max()))
+
+
+def pile(n, seed=0, shape="box"):
     """Columns of boxes (0.18-0.2 m, random) stacked in contact on a floor, 2 mm lateral jitter so
-    neighbours come within the AABB margin; returns (polyhedra, centroids) with the floor first."""
+    neighbours come within the AABB margin; returns (polyhedra, centroids) with the floor first.
+    ``shape="rock"``: random rocks (:func:`rock`) instead, each 1 mm above the one below."""
+    if shape == "rock":
+        return _rock_pile(n, seed)
     rng = np.random.default_rng(seed)
     ncol = max(1, int(math.ceil(math.sqrt(n / 4))))  # ~4 blocks per column
     pitch = 0.205
@@ -45,6 +63,23 @@ def pile(n, seed=0):
         pos.append([ix * pitch + rng.uniform(-0.002, 0.002), iy * pitch + rng.uniform(-0.002, 0.002), z0 + sz / 2])
         top[c] = z0 + sz
         polys.append(box(sx, sy, sz))
+    L = ncol * pitch + 1.0
+    cxy = 0.5 * (ncol - 1) * pitch
+    return [slab(L, L, 0.3)] + polys, np.array([[cxy, cxy, -0.15]] + pos)
+
+
+def _rock_pile(n, seed):
+    rng = np.random.default_rng(seed)
+    ncol = max(1, int(math.ceil(math.sqrt(n / 4))))
+    pitch = 0.205
+    pos, polys, top = [], [], {}
+    for k in range(n):
+        c = k % ncol**2
+        p = rock(rng)
+        z0 = top.get(c, 0.0) + 1e-3
+        pos.append([(c % ncol) * pitch, (c // ncol) * pitch, z0 - p.vertices[:, 2].min()])
+        top[c] = z0 + np.ptp(p.vertices[:, 2])
+        polys.append(p)
     L = ncol * pitch + 1.0
     cxy = 0.5 * (ncol - 1) * pitch
     return [slab(L, L, 0.3)] + polys, np.array([[cxy, cxy, -0.15]] + pos)
@@ -68,8 +103,16 @@ NARROW_VARIANTS = (("per edge, law over all slots", dict(law_slots=0), True),
                    ("per direction, law over active slots (default)", {}, False))
 
 
-def run_blocks(n, steps, chunk=50, pair_segment=64, edges_as_directions=False, **kw):
-    polys, pos = pile(n)
+def _n_points(s):
+    """Active contact points of a block state (also of the commits before ``contact_feature``, for
+    ``ab_commits.py``)."""
+    if hasattr(s, "contact_feature"):
+        return jnp.sum(s.contact_feature >= 0)
+    return jnp.sum(s.slot_active)
+
+
+def run_blocks(n, steps, chunk=50, pair_segment=64, edges_as_directions=False, shape="box", **kw):
+    polys, pos = pile(n, shape=shape)
     motion = [Motion.FIXED] + [Motion.DYNAMIC] * n
     bp = Broadphase.ALL_PAIRS if n <= 32 else Broadphase.GRID
     cfg, par, st = make_blocks(polys, positions=pos, motion=motion, normal_stiffness=1e7, shear_stiffness=4e6,
@@ -84,7 +127,7 @@ def run_blocks(n, steps, chunk=50, pair_segment=64, edges_as_directions=False, *
         def body(c, _):
             s, stat, t = c
             s, st_ = rb.advance_blocks(s, par, cfg, dt=dt, t=t, gravity=g)
-            return (s, stat | st_, t + dt), (jnp.sum(s.pair_mask), jnp.sum(s.slot_active))
+            return (s, stat | st_, t + dt), (jnp.sum(s.pair_mask), _n_points(s))
         (s, stat, t), (npairs, npts) = jax.lax.scan(body, (s, jnp.int32(0), t0), None, length=chunk)
         return s, stat, t, npairs, npts
 
@@ -104,8 +147,10 @@ def run_blocks(n, steps, chunk=50, pair_segment=64, edges_as_directions=False, *
     st.x.block_until_ready()
     wall = time.perf_counter() - tw
     nsteps = nch * chunk
-    return dict(bench="blocks_pile", n_blocks=n, broadphase=bp.value, pair_capacity=cfg.pair_capacity,
-                pair_segment=cfg.pair_segment, law_slots=cfg.law_slots, fcp_per_edge=edges_as_directions,
+    return dict(bench="blocks_pile", shape=shape, n_blocks=n, broadphase=bp.value, pair_capacity=cfg.pair_capacity,
+                pair_segment=cfg.pair_segment, law_slots=cfg.law_slots,
+                crossing_edges=getattr(cfg, "crossing_edges", None),
+                max_edges=cfg.max_edges, fcp_per_edge=edges_as_directions,
                 fcp_directions=int(st.shape.direction_edge.shape[1]),
                 contact_slots=cfg.contact_slots, fcp_iterations=cfg.fcp_iterations, dt=dt, steps=nsteps,
                 wall_s=round(wall, 3), compile_plus_first_chunk_s=round(compile_s, 2),
@@ -187,6 +232,11 @@ def main():
                     help="instead: time each pile with the FCP scoring every edge or each edge direction, and the "
                          "contact law over every contact slot or the gathered active ones (BlockConfig.law_slots), "
                          "alternated --repeats times in this process, and print the ratios")
+    ap.add_argument("--ab-crossing", type=int, nargs="+", default=None,
+                    help="instead: time each pile with these BlockConfig.crossing_edges values (0 = crossings of "
+                         "every edge pair), alternated --repeats times in this process, and print the ratios")
+    ap.add_argument("--shape", choices=("box", "rock"), default="box", help="pile of boxes or of random rocks")
+    ap.add_argument("--no-mujoco", action="store_true")
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--out", default=None, help="also append the records (with date, command, load) to this file")
     a = ap.parse_args()
@@ -216,16 +266,24 @@ def main():
 
     if a.ab_narrow:
         for n in a.sizes:
-            alternate(n, [(name, dict(kw, edges_as_directions=pe)) for name, kw, pe in NARROW_VARIANTS],
-                      "blocks_narrow_ab", keys=("mean_contact_points", "steps"))
+            alternate(n, [(name, dict(kw, edges_as_directions=pe, shape=a.shape)) for name, kw, pe in NARROW_VARIANTS],
+                      "blocks_narrow_ab", keys=("mean_contact_points", "steps", "shape"))
         return
     if a.ab_segments:
         for n in a.sizes:
-            alternate(n, [(sg, dict(pair_segment=sg)) for sg in a.ab_segments], "blocks_pair_segment_ab")
+            alternate(n, [(sg, dict(pair_segment=sg, shape=a.shape)) for sg in a.ab_segments], "blocks_pair_segment_ab",
+                      keys=("shape",))
+        return
+    if a.ab_crossing:
+        for n in a.sizes:
+            alternate(n, [(ce, dict(crossing_edges=ce, shape=a.shape)) for ce in a.ab_crossing], "blocks_crossing_ab",
+                      keys=("shape", "max_edges", "mean_contact_points"))
         return
     for n in a.sizes:
-        r = run_blocks(n, steps_for(n))
+        r = run_blocks(n, steps_for(n), shape=a.shape)
         out(r)
+        if a.no_mujoco or a.shape != "box":
+            continue
         m = run_mujoco(n, a.steps, r["dt"])
         if "block_steps_per_s" in m:
             m["ratio_rockjax_over_mujoco"] = r["block_steps_per_s"] / m["block_steps_per_s"]

@@ -87,7 +87,8 @@ def host_frame(state: State) -> dict:
 
 def resize(state: State, config: Config) -> State:
     """The state with its buffers shaped for ``config`` (neighbours rebuilt at next refresh; block
-    buffers re-made by ``blocks.resize`` when the pair capacity grew)."""
+    buffers re-made by ``blocks.resize_pairs`` when the pair capacity grew, the shear history
+    shaped by ``blocks.fit_history``)."""
     state = state.replace(status=jnp.zeros((), jnp.int32))
     if state.nbrs is not None:
         state = state.replace(nbrs=empty_neighbours(config, state.particles.x))
@@ -96,6 +97,10 @@ def resize(state: State, config: Config) -> State:
 
         _, fresh = blocks.resize_pairs(config.blocks, state.blocks, config.blocks.pair_capacity)
         state = state.replace(blocks=fresh)
+    if state.blocks is not None:
+        from . import blocks
+
+        state = state.replace(blocks=blocks.fit_history(config.blocks, state.blocks))
     return state
 
 
@@ -159,6 +164,8 @@ def _grow(config: Config, period: int, state: State, bits: int) -> tuple[Config,
         grown["grid_cell_capacity"] = 2 * b.grid_cell_capacity
     if bits & Status.CONTACT_POINT_OVERFLOW:
         grown["law_slots"] = min(2 * b.law_slots, b.contact_slots)
+    if bits & Status.CROSSING_EDGE_OVERFLOW:
+        grown["crossing_edges"] = min(2 * b.crossing_edges, b.max_edges)
     if grown:
         changes["blocks"] = dataclasses.replace(b, **grown)
     if bits & Status.NEIGHBOUR_OVERFLOW:

@@ -91,9 +91,10 @@ def sat(pi, qi, xi, pj, qj, xj):
 
 
 @functools.lru_cache(maxsize=None)
-def fcp_fn(iterations: int, by_direction: bool = True):
+def fcp_fn(iterations: int, by_direction: bool = True, crossing_edges: int = 0):
     """Jitted ``(bi, qi, xi, bj, qj, xj, n_prev, prev_valid) -> dict`` on padded blocks; with
-    ``by_direction`` the FCP scores edge directions (as ``contact_forces`` does), else every edge."""
+    ``by_direction`` the FCP scores edge directions (as ``contact_forces`` does), else every edge;
+    ``crossing_edges``: of ``pair_contacts`` (0: crossings among every edge)."""
 
     def run(bi, qi, xi, bj, qj, xj, n_prev, prev_valid):
         Ri, Rj = quat_matrix(qi), quat_matrix(qj)
@@ -106,11 +107,11 @@ def fcp_fn(iterations: int, by_direction: bool = True):
                        Xj, bj["vm"], Nj, bj["fm"], bj["e"], bj["em"], xi, xj, n_prev, prev_valid,
                        bi["dirs"] if by_direction else None, bj["dirs"] if by_direction else None,
                        iterations=iterations)
-        pts, depth, active = pair_contacts(Xi, bi["vm"], Ni, Di, bi["fm"], bi["e"], bi["em"], bi["r"],
-                                           Xj, bj["vm"], Nj, Dj, bj["fm"], bj["e"], bj["em"], bj["r"],
-                                           out["normal"], out["gap"],
-                                           tol_rel=1e-4, edge_contacts=True)
-        out.update(points=pts, depth=depth, active=active)
+        pc = pair_contacts(Xi, bi["vm"], Ni, Di, bi["fm"], bi["e"], bi["em"], bi["r"],
+                           Xj, bj["vm"], Nj, Dj, bj["fm"], bj["e"], bj["em"], bj["r"],
+                           out["normal"], out["gap"], tol_rel=1e-4, edge_contacts=True, crossing_edges=crossing_edges)
+        out.update(points=pc.points, depth=pc.depth, active=pc.active, feature=pc.feature,
+                   edge_overflow=pc.edge_overflow)
         return out
 
     return jax.jit(run)

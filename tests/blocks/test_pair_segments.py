@@ -1,12 +1,14 @@
-"""The narrow phase in segments (``BlockConfig.pair_segment``) and the contact law over the gathered
-active slots (``BlockConfig.law_slots``) give what one pass over every slot gives.
+"""The narrow phase in segments (``BlockConfig.pair_segment``), the contact law over the gathered
+active slots (``BlockConfig.law_slots``) and the crossings among the selected edges
+(``BlockConfig.crossing_edges``) give what one pass over every slot and every edge gives.
 
 ``contact_forces`` evaluates FCP, the contact points and the contact law over the pair buffer in
 segments of ``pair_segment`` slots and skips (``lax.cond``) a segment holding no overlapping pair;
 within a segment the law runs over each pair's active contact points gathered into ``law_slots``
-slots (their shear history scattered back to its own slot). Neither may change anything: the
-forces, the contact history, a rollout, its gradient and its ``vmap`` are compared with the
-evaluation over every pair slot and every contact slot (``pair_segment=0, law_slots=0``) in
+slots (their shear history kept per law slot with its contact feature). None may change anything:
+the forces, the contact history (per contact feature), a rollout, its gradient and its ``vmap`` are
+compared with the evaluation over every pair slot, every contact slot and the crossings of every
+edge pair (``pair_segment=0, law_slots=0, crossing_edges=0``) in
 float64, on a scene whose buffer has both empty and occupied segments (two stacks of boxes far
 apart, sliding on each other, with joint water so that its patch path is segmented too). A pair
 with more active points than ``law_slots`` sets ``CONTACT_POINT_OVERFLOW``, never silently dropped.
@@ -59,9 +61,27 @@ def _rollout(cfg, n_steps, dt):
     return run
 
 
+def _one_pass(cfg):
+    return dataclasses.replace(cfg, pair_segment=0, law_slots=0, crossing_edges=0)
+
+
+def _by_feature(history):
+    """{(pair slot, contact feature): shear [3]} of the live pairs' active law slots."""
+    live = np.asarray(history.pair_mask)
+    feat, shear = np.asarray(history.contact_feature), np.asarray(history.shear)
+    return {(int(p), int(feat[p, k])): shear[p, k] for p in np.flatnonzero(live) for k in np.flatnonzero(feat[p] >= 0)}
+
+
+def _assert_same_history(h_a, h_b):
+    a, b = _by_feature(h_a), _by_feature(h_b)
+    assert a.keys() == b.keys() and len(a) > 0
+    np.testing.assert_allclose(np.array([a[k] for k in a]), np.array([b[k] for k in a]), rtol=0, atol=1e-12)
+
+
 def test_segments_skip_and_match_one_pass(scene):
     cfg, par, st = scene
-    one = dataclasses.replace(cfg, pair_segment=0, law_slots=0)
+    one = _one_pass(cfg)
+    assert cfg.crossing_slots < one.crossing_slots == cfg.max_edges  # crossings among selected edges
     g = jnp.asarray(GRAV)
     seg_out = jax.jit(lambda s: rb.contact_forces(s, par, cfg, dt=1e-4, gravity=g, return_info=True))(st)
     one_out = jax.jit(lambda s: rb.contact_forces(s, par, one, dt=1e-4, gravity=g, return_info=True))(st)
@@ -75,18 +95,28 @@ def test_segments_skip_and_match_one_pass(scene):
         np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-12, atol=1e-12)
     h_seg, h_one = seg_out[2], one_out[2]  # the history of the live pairs (a skipped pair's is unused)
     assert np.array_equal(np.asarray(h_seg.pair_mask), live) and np.array_equal(np.asarray(h_one.pair_mask), live)
-    assert np.array_equal(np.asarray(h_seg.slot_active), np.asarray(h_one.slot_active))
     np.testing.assert_allclose(np.asarray(h_seg.plane)[live], np.asarray(h_one.plane)[live], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(np.asarray(h_seg.shear), np.asarray(h_one.shear), rtol=0, atol=1e-12)
+    _assert_same_history(h_seg, h_one)
     assert int(seg_out[3]) == int(one_out[3])
-    for k in ("depth", "active", "normal_force", "tangential_force", "joint_water_force"):
-        np.testing.assert_allclose(np.asarray(seg_out[4][k]), np.asarray(one_out[4][k]), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(seg_out[4]["joint_water_force"]), np.asarray(one_out[4]["joint_water_force"]),
+                               rtol=1e-12, atol=1e-12)
+    # the contact points per feature (the two layouts differ in their crossing slots)
+    for out in (seg_out, one_out):
+        assert np.all(np.asarray(out[4]["feature"])[np.asarray(out[4]["active"])] >= 0)
+    pts = [{(int(p), int(f)): (d, fn, ft) for p in np.flatnonzero(live)
+            for f, a, d, fn, ft in zip(*(np.asarray(o[4][k])[p] for k in ("feature", "active", "depth", "normal_force",
+                                                                          "tangential_force"))) if a}
+           for o in (seg_out, one_out)]
+    assert pts[0].keys() == pts[1].keys()
+    for k in pts[0]:
+        for a, b in zip(pts[0][k], pts[1][k]):
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.slow  # ~60 s of compiles (two rollouts, two gradients, a vmap): the slow suite, run in CI
 def test_segmented_rollout_grad_and_vmap(scene):
     cfg, par, st = scene
-    one = dataclasses.replace(cfg, pair_segment=0, law_slots=0)
+    one = _one_pass(cfg)
     dt = 0.5 * float(rb.stable_dt(cfg, par, st))
     n = 60
 
@@ -105,7 +135,7 @@ def test_segmented_rollout_grad_and_vmap(scene):
     s_one, stat_one = jax.jit(_rollout(one, n, dt))(par, st)
     assert int(stat_seg) == int(stat_one) == 0
     np.testing.assert_allclose(np.asarray(s_seg.x), np.asarray(s_one.x), rtol=0, atol=1e-12)
-    np.testing.assert_allclose(np.asarray(s_seg.shear), np.asarray(s_one.shear), rtol=0, atol=1e-12)
+    _assert_same_history(s_seg, s_one)
     g_seg = jax.jit(jax.grad(loss(cfg), argnums=(0, 1)))(*args)
     g_one = jax.jit(jax.grad(loss(one), argnums=(0, 1)))(*args)
     assert float(jnp.abs(g_one[1])) > 0  # friction matters over this horizon
@@ -150,3 +180,57 @@ def test_law_slots_overflow_flagged_and_grown(x64):
     assert grown.blocks.law_slots == 4
     with pytest.raises(ValueError, match="law_slots"):
         make_blocks(shapes, law_slots=-1, **kw)
+
+
+def test_crossing_edges_overflow_flagged_and_grown(x64):
+    """Crossed squares (a cube on a cube turned 45 deg about z: no corner inside the other, 8
+    edge-edge crossings from 4 edges of each cube inside the other): with ``crossing_edges`` 4 the
+    same loads, points and features as with the crossings of every edge pair (0); with 2 a cube
+    has more edges inside the other than that, which sets CROSSING_EDGE_OVERFLOW (a growable bit),
+    and the driver's ``_grow`` doubles it (at most ``max_edges``). The driver's ``resize`` then
+    fits the shear history to grown law slots, keeping what it held."""
+    from rockjax.blocks import quat_from_axis_angle
+    from rockjax.driver import _grow
+    from rockjax.types import Config, Status
+
+    pos = np.array([[0.0, 0.0, 0.15], [0.0, 0.0, 0.45 - 1e-4]])
+    q = np.stack([[1.0, 0, 0, 0], quat_from_axis_angle((0, 0, 1), np.pi / 4)])
+    kw = dict(positions=pos, orientations=q, motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6,
+              velocities=np.array([[0.0, 0, 0], [0.01, 0.02, 0]]))
+    shapes = [box(0.3, 0.3, 0.3), box(0.3, 0.3, 0.3)]
+    out = {}
+    for k in (0, 4, 2):
+        cfg, par, st = make_blocks(shapes, crossing_edges=k, **kw)
+        forces = jax.jit(lambda s, c=cfg, p=par: rb.contact_forces(s, p, c, dt=1e-4, return_info=True))
+        F, T, h, status, info = forces(st)
+        act = np.asarray(info["active"])[0]
+        out[k] = (np.asarray(F), np.asarray(T), int(status), dict(zip(np.asarray(info["feature"])[0][act].tolist(),
+                                                                       np.asarray(info["points"])[0][act])), h)
+    assert out[0][2] == 0 and out[4][2] == 0
+    assert len(out[0][3]) == 8 and all(f >= 2 * 8 for f in out[0][3])  # 8 points, all crossings
+    assert out[4][3].keys() == out[0][3].keys()
+    for f in out[0][3]:
+        np.testing.assert_allclose(out[4][3][f], out[0][3][f], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(out[4][0], out[0][0], rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(out[4][1], out[0][1], rtol=1e-12, atol=1e-9)
+    assert out[2][2] & Status.CROSSING_EDGE_OVERFLOW
+    assert Status.CROSSING_EDGE_OVERFLOW & Status.growable()
+    cfg2, par2, st2 = make_blocks(shapes, crossing_edges=2, **kw)
+    cfg_all = Config(n_fluid=0, n_wall=0, dt=1e-4, grid=None, cutoff=0.0, skin=0.0, blocks=cfg2)
+    grown, _ = _grow(cfg_all, 8, None, int(Status.CROSSING_EDGE_OVERFLOW))
+    assert grown.blocks.crossing_edges == 4
+    grown, _ = _grow(grown.replace(blocks=dataclasses.replace(cfg2, crossing_edges=8)), 8, None,
+                     int(Status.CROSSING_EDGE_OVERFLOW))
+    assert grown.blocks.crossing_edges == 12 == cfg2.max_edges
+    with pytest.raises(ValueError, match="crossing_edges"):
+        make_blocks(shapes, crossing_edges=-1, **kw)
+    # the history of the 4-edge run, refitted to 64 law slots: the same springs, empty slots added
+    h4 = out[4][4]
+    st4 = make_blocks(shapes, crossing_edges=4, **kw)[2]
+    st4 = rb.with_history(st4, h4)
+    wide = rb.fit_history(dataclasses.replace(cfg2, crossing_edges=8, law_slots=64), st4)
+    L = cfg2.law_slots
+    assert wide.shear.shape[1] == 64 > L
+    np.testing.assert_array_equal(np.asarray(wide.shear)[:, :L], np.asarray(h4.shear))
+    np.testing.assert_array_equal(np.asarray(wide.contact_feature)[:, :L], np.asarray(h4.contact_feature))
+    assert np.all(np.asarray(wide.contact_feature)[:, L:] == -1) and not np.any(np.asarray(wide.shear)[:, L:])

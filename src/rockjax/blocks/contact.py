@@ -7,14 +7,18 @@ skips a segment holding no overlapping pair (``_segmented``); the pairs' loads a
 onto the blocks.
 
 Contact points of a pair (i, j) with common-plane normal n (from i to j) -- padded, masked, never
-pruned; each kind has its own fixed slot so the shear history follows the feature:
+pruned; each point carries its contact *feature* (a vertex, a pair of edges, the fallback: an id,
+``BlockState.contact_feature``) by which its shear spring follows it from step to step:
 
 * vertices of j inside block i (slot = vertex of j): depth = distance from the vertex along +n
   to the boundary of i (local: a tilted face gives each corner its own depth);
 * vertices of i inside block j (slot = vertex of i): depth = distance along -n out of j;
-* edge-edge crossings (slot = edge of i x edge of j): the two edges, projected on the common
+* edge-edge crossings (feature = edge of i x edge of j): the two edges, projected on the common
   plane, cross strictly inside both; the crossing point of i's edge lies inside j and that of
-  j's edge inside i; depth = n.(p_i - p_j) > 0;
+  j's edge inside i; depth = n.(p_i - p_j) > 0. Sought among the edges of each block with a part
+  inside the other only, the first ``BlockConfig.crossing_edges`` (8) of them (more set
+  ``Status.CROSSING_EDGE_OVERFLOW``): 64 crossing slots instead of max_edges^2 (144 for boxes,
+  ~900 for 12-vertex rocks);
 * fallback (one slot): if the pair overlaps but none of the above exists (an edge passing
   through a face), one point at the centre of the edges clipped by the other block, depth = the
   common-plane overlap.
@@ -23,8 +27,9 @@ pruned; each kind has its own fixed slot so the shear history follows the featur
 side face, as at the corners of a face-on-face contact, count).
 
 The law below runs over each pair's active points gathered into ``BlockConfig.law_slots`` slots
-(a box pair has up to 16 of its 161 slots); each point's shear history is read from and written
-back to its own slot. A pair with more active points sets ``Status.CONTACT_POINT_OVERFLOW``.
+(a box pair has up to 16 of its 81 slots), and the shear history is kept in those slots with each
+point's feature: a point takes the spring of the last step's slot with its feature (none: a new
+contact). A pair with more active points sets ``Status.CONTACT_POINT_OVERFLOW``.
 
 Contact law per point (forces on j; i gets the opposite, torques about each centroid):
 
@@ -49,6 +54,8 @@ effective stress).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import jax
 import jax.numpy as jnp
 
@@ -71,13 +78,13 @@ class ContactHistory:
     plane: jax.Array
     plane_valid: jax.Array
     shear: jax.Array
-    slot_active: jax.Array
+    contact_feature: jax.Array
 
 
 def with_history(state: BlockState, h: ContactHistory) -> BlockState:
     """``state`` with its contact history replaced by ``h``."""
     return state.replace(pairs=h.pairs, pair_mask=h.pair_mask, plane=h.plane, plane_valid=h.plane_valid,
-                         shear=h.shear, slot_active=h.slot_active)
+                         shear=h.shear, contact_feature=h.contact_feature)
 
 
 def _inside(pts, N, D, fm, tol):
@@ -103,20 +110,46 @@ def _tangent_basis(n):
     return t1, t2
 
 
+class PairContacts(NamedTuple):
+    """Contact points of one pair (:func:`pair_contacts`), S slots."""
+
+    points: jax.Array  #: [S,3] m
+    depth: jax.Array  #: [S] m (0 where inactive)
+    active: jax.Array  #: [S] bool
+    feature: jax.Array  #: [S] int32, each slot's contact feature (``BlockState.contact_feature``)
+    edge_overflow: jax.Array  #: [] bool: a block has more edges inside the other than the crossing slots
+
+
+def _first_k(cand, k: int):
+    """The indices of the first ``k`` True entries of ``cand`` [n] (in order; ``n`` past the
+    count) and whether there were more than ``k``: ``(idx [k] int32, overflow [])``."""
+    n = cand.shape[0]
+    rank = jnp.cumsum(cand.astype(jnp.int32)) - 1
+    hit = cand[None, :] & (rank[None, :] == jnp.arange(k, dtype=jnp.int32)[:, None])  # [k, n]
+    idx = jnp.where(jnp.any(hit, -1), jnp.argmax(hit, -1).astype(jnp.int32), n)
+    return idx, rank[-1] >= k
+
+
 def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj, rj, n, gap, *,
-                  tol_rel: float, edge_contacts: bool, slack: float = 0.0):
+                  tol_rel: float, edge_contacts: bool, slack: float = 0.0, crossing_edges: int = 0):
     """Contact points of one pair for the common-plane normal n.
 
     ``slack`` (m) > 0 gives the points of the pair's *near* contact instead: both blocks grown by
     ``slack`` (points within that distance of the other block count; the joint-water patch).
+
+    Edge-edge crossings are sought among the edges of each block with a part inside the other
+    (the only ones whose crossing point can lie inside it), the first ``crossing_edges`` of them
+    (``BlockConfig.crossing_edges``; 0 or >= nE: every edge, no selection); more set
+    ``edge_overflow``.
 
     Args:
       X*: [V,3] world vertices; m*: [V]; N*: [F,3] world normals; D*: [F] offsets; fm*: [F];
       e*: [nE,2] edges; em*: [nE]; r*: [] bounding radii (m).  n: [3] unit normal i -> j;
       gap: [] m, the common-plane gap (< 0: overlap).
     Returns:
-      ``(points [S,3] m, depth [S] m, active [S] bool)`` with S = 2 V (+ nE^2 with edge contacts) + 1.
+      :class:`PairContacts` with S = 2 V (+ k^2 with edge contacts, k the crossing edges) + 1 slots.
     """
+    V, nE = Xi.shape[0], ei.shape[0]
     tol_i, tol_j = tol_rel * ri, tol_rel * rj
     if slack:
         Di, Dj = Di + slack, Dj + slack
@@ -128,10 +161,34 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
     pts = [Xj, Xi]
     dep = [dj, di]
     act = [aj, ai]
+    feat = [jnp.arange(2 * V, dtype=jnp.int32)]
+    overflow = jnp.zeros((), bool)
     if edge_contacts:
-        t1, t2 = _tangent_basis(n)
+        eps = 1e-3
         a0, dA3 = Xi[ei[:, 0]], Xi[ei[:, 1]] - Xi[ei[:, 0]]
         b0, dB3 = Xj[ej[:, 0]], Xj[ej[:, 1]] - Xj[ej[:, 0]]
+        # the part of each edge inside the other block: a crossing point of i's edge a0 + s dA3
+        # lies inside j iff s is within [lo_i, hi_i] (per edge, not per crossing), likewise for j
+        lo_i, hi_i = _inside_interval(a0, dA3, Nj, Dj, fmj, tol_j)
+        lo_j, hi_j = _inside_interval(b0, dB3, Ni, Di, fmi, tol_i)
+        k = nE if crossing_edges <= 0 or crossing_edges >= nE else crossing_edges
+        if k < nE:  # only edges with a part strictly inside (eps, 1 - eps) can cross
+            ci = emi & (hi_i > eps) & (lo_i < 1 - eps) & (lo_i <= hi_i)
+            cj = emj & (hi_j > eps) & (lo_j < 1 - eps) & (lo_j <= hi_j)
+            idx_i, over_i = _first_k(ci, k)
+            idx_j, over_j = _first_k(cj, k)
+            overflow = over_i | over_j
+
+            def take(a, idx):
+                return jnp.take(a, idx, axis=0, mode="fill", fill_value=0)
+
+            a0, dA3, lo_i, hi_i = (take(a, idx_i) for a in (a0, dA3, lo_i, hi_i))
+            b0, dB3, lo_j, hi_j = (take(a, idx_j) for a in (b0, dB3, lo_j, hi_j))
+            em_a, em_b = idx_i < nE, idx_j < nE
+        else:
+            idx_i = idx_j = jnp.arange(nE, dtype=jnp.int32)
+            em_a, em_b = emi, emj
+        t1, t2 = _tangent_basis(n)
 
         def p2(x):
             return jnp.stack([project(x, t1), project(x, t2)], -1)
@@ -142,20 +199,15 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
         def cross2(u, w):
             return u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0]
 
-        w = B0[None, :, :] - A0[:, None, :]  # [nEi, nEj, 2]
+        w = B0[None, :, :] - A0[:, None, :]  # [k, k, 2]
         den = cross2(dA[:, None, :], dB[None, :, :])
         la = safe_norm(dA)[:, None]
         lb = safe_norm(dB)[None, :]
-        ok = (jnp.abs(den) > 1e-6 * la * lb) & emi[:, None] & emj[None, :]
+        ok = (jnp.abs(den) > 1e-6 * la * lb) & em_a[:, None] & em_b[None, :]
         den_s = jnp.where(ok, den, 1.0)
         s = cross2(w, dB[None, :, :]) / den_s
         u = cross2(w, dA[:, None, :]) / den_s
-        eps = 1e-3
         ok = ok & (s > eps) & (s < 1 - eps) & (u > eps) & (u < 1 - eps)
-        # the crossing point of i's edge a0 + s dA3 lies inside j where s is within the edge's
-        # interval inside j's planes (per edge, not per crossing), and likewise for j's edge
-        lo_i, hi_i = _inside_interval(a0, dA3, Nj, Dj, fmj, tol_j)
-        lo_j, hi_j = _inside_interval(b0, dB3, Ni, Di, fmi, tol_i)
         ok = ok & (s >= lo_i[:, None]) & (s <= hi_i[:, None]) & (u >= lo_j[None, :]) & (u <= hi_j[None, :])
         # depth n.(p - q) from per-edge projections on n
         de = (project(a0, n)[:, None] + s * project(dA3, n)[:, None]
@@ -165,6 +217,7 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
         pts.append(mid.reshape(-1, 3))
         dep.append(de.reshape(-1))
         act.append(ok.reshape(-1))
+        feat.append((2 * V + idx_i[:, None] * nE + idx_j[None, :]).reshape(-1))
     # fallback slot: an overlap (gap < 0) with none of the points above -- an edge passing through
     # a face, where no vertex lies inside and no two edges cross -- gets one point at the centre of
     # the edge segments clipped by the other block, with the common-plane overlap as depth
@@ -176,10 +229,11 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
     pts.append(((ci + cj) / jnp.maximum(k, 1.0))[None])
     dep.append(-gap[None])
     act.append(fb_ok[None])
+    feat.append(jnp.full((1,), 2 * V + nE * nE, jnp.int32))
     points = jnp.concatenate(pts, 0)
     depth = jnp.concatenate(dep, 0)
     active = jnp.concatenate(act, 0)
-    return points, jnp.where(active, depth, 0.0), active
+    return PairContacts(points, jnp.where(active, depth, 0.0), active, jnp.concatenate(feat, 0), overflow)
 
 
 def _inside_interval(x0, d, N, D, fm, tol):
@@ -239,9 +293,10 @@ def _active_slots(active, k: int):
     return jnp.full((S, k), n, jnp.int32).at[jnp.arange(S)[:, None], rank].set(slots, mode="drop")
 
 
-def _segmented(fn, live, args, seg: int):
+def _segmented(fn, live, args, seg: int, fill=None):
     """``fn(*args)`` over the leading (pair) axis of ``args`` in segments of ``seg`` rows, skipping
-    (``lax.cond``) a segment with no ``live`` row: its outputs are zeros.
+    (``lax.cond``) a segment with no ``live`` row: its outputs are zeros, or ``fill[key]`` for the
+    keys of ``fill`` (a dict) when ``fn`` returns a dict.
 
     ``fn`` maps arrays [S, ...] to a pytree of arrays [S, ...]; ``live`` [P] bool; ``args`` arrays
     [P, ...] (padded here with zeros to a whole number of segments, the outputs cut back to P).
@@ -263,7 +318,10 @@ def _segmented(fn, live, args, seg: int):
     shapes = jax.eval_shape(fn, *(x[0] for x in xs))
 
     def skip(*_):
-        return jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
+        out = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
+        for key, value in (fill or {}).items():
+            out[key] = jnp.full(shapes[key].shape, value, shapes[key].dtype)
+        return out
 
     def body(_, x):
         lv, a = x
@@ -289,7 +347,7 @@ def _remap(old: ContactHistory, pairs, mask, B):
         plane=old.plane[src],
         plane_valid=found & old.plane_valid[src],
         shear=old.shear[src],
-        slot_active=found[:, None] & old.slot_active[src],
+        contact_feature=jnp.where(found[:, None], old.contact_feature[src], -1),
     )
 
 
@@ -312,10 +370,11 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     Xw = world_vertices(state)
     Nw, Dw = world_planes(state)
     pairs, mask, status = candidate_pairs(config, Xw, sh.vertex_mask)
-    old = ContactHistory(state.pairs, state.pair_mask, state.plane, state.plane_valid, state.shear, state.slot_active)
+    old = ContactHistory(state.pairs, state.pair_mask, state.plane, state.plane_valid, state.shear,
+                         state.contact_feature)
     if pairs_are_static(config):
         hist = ContactHistory(pairs, mask, old.plane, old.plane_valid & mask, old.shear,
-                              old.slot_active & mask[:, None])
+                              jnp.where(mask[:, None], old.contact_feature, -1))
     else:
         hist = _remap(old, pairs, mask, B)
     dyn = jnp.asarray([m == Motion.DYNAMIC for m in config.motion])
@@ -333,7 +392,7 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     # reads a separated pair's gap (which the iterations may still raise)
     iterations = 0 if sat_start(sh.direction_edge.shape[1]) and not config.joint_water else config.fcp_iterations
 
-    def pair_forces(i, j, mask, plane, plane_valid, shear, slot_active):
+    def pair_forces(i, j, mask, plane, plane_valid, shear, feature_old):
         """FCP, contact points and the contact law of the pairs (i, j) [S] (a segment of the
         buffer): per-pair forces on j and torques on i and j, the new shear history, diagnostics."""
         fcp = jax.vmap(lambda *a: fcp_pair(*a, iterations=iterations))(
@@ -352,16 +411,23 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
 
         def points_of_pairs(slack=0.0):
             return jax.vmap(lambda *a: pair_contacts(*a, tol_rel=config.inside_tolerance,
-                                                     edge_contacts=config.edge_contacts, slack=slack))(*geometry)
+                                                     edge_contacts=config.edge_contacts, slack=slack,
+                                                     crossing_edges=config.crossing_slots))(*geometry)
 
-        pts_all, depth_all, active_all = points_of_pairs()
-        active_all = active_all & mask[:, None]
-        depth_all = jnp.where(active_all, depth_all, 0.0)
+        pc = points_of_pairs()
+        pts_all, feature_all = pc.points, pc.feature
+        active_all = pc.active & mask[:, None]
+        depth_all = jnp.where(active_all, pc.depth, 0.0)
+        edge_overflow = pc.edge_overflow & mask
         n_points = jnp.sum(active_all.astype(jnp.int32), 1)
         # the law runs over the pair's active slots only (gathered to the front, in slot order)
         slot = _active_slots(active_all, config.law_slots)
-        pts, depth, active, shear, slot_active = (_take_slots(a, slot)
-                                                  for a in (pts_all, depth_all, active_all, shear, slot_active))
+        pts, depth, active, feature = (_take_slots(a, slot) for a in (pts_all, depth_all, active_all, feature_all))
+        feature = jnp.where(active, feature, -1)
+        # each point's shear spring from the last step's slot holding the same feature (one-hot:
+        # features are unique within a pair; none: a new contact, no spring)
+        same = (feature[:, :, None] == feature_old[:, None, :]) & (feature[:, :, None] >= 0)
+        shear = jnp.einsum("skm,smc->skc", same.astype(f), shear)
 
         # ---- contact law ----
         m_red = 1.0 / jnp.maximum(inv_m[i] + inv_m[j], 1e-30)  # [S]
@@ -380,7 +446,7 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
         fn = kn * depth + cn * jnp.maximum(-vn, 0.0)
         fn = jnp.where(active, fn, 0.0)
         vt = vrel - vn[..., None] * nn
-        u = jnp.where(slot_active[..., None], shear, 0.0)
+        u = shear
         u = u - jnp.sum(u * nn, -1, keepdims=True) * nn
         u = u + vt * dt
         ft = -ks * u - ct[..., None] * vt
@@ -401,15 +467,16 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
             return jnp.zeros(active_all.shape + a.shape[2:], a.dtype).at[rows, slot].set(a, mode="drop")
 
         out = dict(normal=n, gap=fcp["gap"], fcp_changes=fcp["changes"], points=pts_all, depth=depth_all,
-                   active=active_all, n_points=n_points, normal_force=per_slot(fn), tangential_force=per_slot(ft_c),
-                   shear=per_slot(u_new),
+                   active=active_all, feature=feature_all, n_points=n_points, edge_overflow=edge_overflow,
+                   normal_force=per_slot(fn), tangential_force=per_slot(ft_c), shear=u_new, contact_feature=feature,
                    Fj=jnp.sum(F, 1), Tj=jnp.sum(jnp.cross(rj, F), 1), Ti=-jnp.sum(jnp.cross(ri, F), 1))
         if config.joint_water:
             t1, t2 = jax.vmap(_tangent_basis)(n)
             ap = config.joint_aperture
             if ap > 0:  # the patch of the near contact, faded out over the aperture
-                wpts, _, wact = points_of_pairs(slack=0.5 * ap)
-                wact = wact & mask[:, None]
+                near = points_of_pairs(slack=0.5 * ap)
+                wpts, wact = near.points, near.active & mask[:, None]
+                out["edge_overflow"] = out["edge_overflow"] | (near.edge_overflow & mask)
                 s_gap = jnp.clip(fcp["gap"] / ap, 0.0, 1.0)
                 fade = 1.0 - s_gap * s_gap * (3.0 - 2.0 * s_gap)
             else:
@@ -428,13 +495,16 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
         return out
 
     i, j = pairs[:, 0], pairs[:, 1]
-    per = _segmented(pair_forces, mask, (i, j, mask, hist.plane, hist.plane_valid, hist.shear, hist.slot_active),
-                     config.pair_segment)
+    per = _segmented(pair_forces, mask, (i, j, mask, hist.plane, hist.plane_valid, hist.shear, hist.contact_feature),
+                     config.pair_segment, fill={"feature": -1, "contact_feature": -1})
     n, depth, active = per["normal"], per["depth"], per["active"]
     Fj, Tj, Ti = per["Fj"], per["Tj"], per["Ti"]
     if 0 < config.law_slots < active.shape[1]:
         over = jnp.any(per["n_points"] > config.law_slots)
         status = status | jnp.where(over, Status.CONTACT_POINT_OVERFLOW.value, 0).astype(jnp.int32)
+    if config.crossing_slots < config.max_edges:
+        over = jnp.any(per["edge_overflow"])
+        status = status | jnp.where(over, Status.CROSSING_EDGE_OVERFLOW.value, 0).astype(jnp.int32)
     if config.joint_water and config.joint_patch_points < active.shape[1]:
         over = jnp.any(per["joint_count"] > config.joint_patch_points)
         status = status | jnp.where(over, Status.JOINT_PATCH_OVERFLOW.value, 0).astype(jnp.int32)
@@ -442,13 +512,13 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     torque = jnp.zeros((B, 3), f).at[j].add(Tj).at[i].add(Ti)
 
     hist = ContactHistory(pairs=pairs, pair_mask=mask, plane=jax.lax.stop_gradient(n), plane_valid=mask,
-                          shear=per["shear"], slot_active=active)
+                          shear=per["shear"], contact_feature=per["contact_feature"])
     rmin = jnp.minimum(sh.radius[i], sh.radius[j])
     deep = jnp.any(depth > config.penetration_limit * rmin[:, None])
     status = status | jnp.where(deep, Status.BLOCK_PENETRATION.value, 0).astype(jnp.int32)
     if return_info:
         info = dict(pairs=pairs, pair_mask=mask, n_contacts=jnp.sum(active.astype(jnp.int32)),
-                    **{k: per[k] for k in ("normal", "gap", "fcp_changes", "points", "depth", "active",
+                    **{k: per[k] for k in ("normal", "gap", "fcp_changes", "points", "depth", "active", "feature",
                                            "normal_force", "tangential_force")})
         if config.joint_water:
             info.update({k: per[k] for k in ("joint_water_force", "joint_points", "joint_active")})

@@ -41,6 +41,7 @@ __all__ = [
     "world_inertia",
     "energies",
     "resize_pairs",
+    "fit_history",
 ]
 
 
@@ -83,8 +84,13 @@ class BlockConfig:
       grid_cell_capacity: most blocks per grid cell (GRID); more set BLOCK_CELL_OVERFLOW (the
         driver doubles it).
       large_blocks: blocks bigger than a grid cell (GRID): tested against every block directly.
-      edge_contacts: also use edge-edge crossings as contact points (default True; they cost
-        max_edges^2 slots per pair, 144 for boxes).
+      edge_contacts: also use edge-edge crossings as contact points (default True).
+      crossing_edges: the edge-edge crossings of a pair are sought among at most this many edges
+        of each block: those with a part inside the other block (a box on a box has 4 each, 8 at
+        most), gathered per pair, so a pair has ``crossing_edges^2`` crossing slots instead of
+        ``max_edges^2`` (144 for boxes, ~900 for 12-vertex rocks). A block with more such edges
+        sets ``Status.CROSSING_EDGE_OVERFLOW``, which the driver cures by doubling it. 0, or
+        >= ``max_edges``: every edge of each block.
       inside_tolerance: relative (to the block's bounding radius) tolerance of the
         point-in-block test that decides which vertices / crossings are contact points.
       penetration_limit: depth / min(bounding radius) above which BLOCK_PENETRATION is set.
@@ -94,13 +100,14 @@ class BlockConfig:
         from 0 to this); 0: only the penetrating contact's patch, with no fade.
       joint_patch_points: the most points one pair's joint patch is built from: its active contact
         points are gathered into this many slots before the O(slots^2) hull (a box pair has up to
-        16; ``contact_slots`` is 161). More set ``Status.JOINT_PATCH_OVERFLOW``, which the driver
+        16; ``contact_slots`` is 81). More set ``Status.JOINT_PATCH_OVERFLOW``, which the driver
         cures by doubling it.
       law_slots: the contact law runs over this many slots per pair, into which the pair's active
-        contact points are gathered (in slot order; their shear history stays in its own slot):
-        a box pair has up to 16 of its 161 ``contact_slots``. More set
+        contact points are gathered (in slot order); the shear history is kept per law slot with
+        the point's contact feature (``BlockState.contact_feature``) and follows the feature from
+        step to step: a box pair has up to 16 points (of its 81 ``contact_slots``). More set
         ``Status.CONTACT_POINT_OVERFLOW``, which the driver cures by doubling it. 0, or >=
-        ``contact_slots``: the law runs over every slot.
+        ``contact_slots``: the law runs over every slot (``history_slots``).
       pair_segment: the narrow phase (FCP and contact points) runs over the pair buffer in
         segments of this many slots and skips a segment holding no overlapping pair (the broad
         phase compacts the pairs at the front of the buffer, so a half-empty buffer costs about
@@ -131,6 +138,7 @@ class BlockConfig:
     joint_patch_points: int = 32
     pair_segment: int = 64
     law_slots: int = 32
+    crossing_edges: int = 8
 
     def __post_init__(self):
         if len(self.motion) != self.n_blocks:
@@ -143,6 +151,8 @@ class BlockConfig:
             raise ValueError("BlockConfig.fcp_iterations must be >= 0")
         if self.law_slots < 0:
             raise ValueError(f"BlockConfig.law_slots must be >= 0 (got {self.law_slots})")
+        if self.crossing_edges < 0:
+            raise ValueError(f"BlockConfig.crossing_edges must be >= 0 (got {self.crossing_edges})")
         if self.pair_segment < 0:
             raise ValueError(f"BlockConfig.pair_segment must be >= 0 (got {self.pair_segment})")
         if not (self.prescribed_ramp >= 0.0 and math.isfinite(self.prescribed_ramp)):
@@ -159,9 +169,24 @@ class BlockConfig:
         return tuple(i for i, m in enumerate(self.motion) if m == Motion.PRESCRIBED)
 
     @property
+    def crossing_slots(self) -> int:
+        """Edges of each block of a pair among which crossings are sought (``crossing_edges``,
+        or every edge); 0 without edge contacts."""
+        if not self.edge_contacts:
+            return 0
+        k = self.crossing_edges
+        return self.max_edges if k <= 0 or k >= self.max_edges else k
+
+    @property
     def contact_slots(self) -> int:
         """Contact slots per pair: vertices of j in i, vertices of i in j, edge x edge crossings, fallback."""
-        return 2 * self.max_vertices + (self.max_edges**2 if self.edge_contacts else 0) + 1
+        return 2 * self.max_vertices + self.crossing_slots**2 + 1
+
+    @property
+    def history_slots(self) -> int:
+        """Slots of a pair's contact law and shear history: ``law_slots``, or every contact slot."""
+        k = self.law_slots
+        return self.contact_slots if k <= 0 or k >= self.contact_slots else k
 
     @property
     def static_pairs(self) -> tuple:
@@ -265,8 +290,12 @@ class BlockState:
       pairs: [P,2] int32 candidate pairs (i < j); pair_mask: [P] bool.
       plane: [P,3] last common-plane normal per pair (from i to j), the FCP warm start;
         plane_valid: [P] bool.
-      shear: [P,S,3] m, tangential spring displacement per contact slot (world frame);
-        slot_active: [P,S] bool.
+      shear: [P,L,3] m, tangential spring displacement per law slot (world frame), L =
+        ``BlockConfig.history_slots``;
+      contact_feature: [P,L] int32, the contact feature of each law slot's point (-1: none): a
+        vertex of j inside i (its index v), a vertex of i inside j (V + v), the crossing of edge a
+        of i with edge b of j (2 V + a nE + b), the fallback point (2 V + nE^2); the shear spring
+        of a feature carries over to the next step wherever that feature's point is gathered.
     """
 
     shape: BlockShape
@@ -281,7 +310,7 @@ class BlockState:
     plane: jax.Array
     plane_valid: jax.Array
     shear: jax.Array
-    slot_active: jax.Array
+    contact_feature: jax.Array
 
 
 # ------------------------------------------------------------------------------------------
@@ -464,6 +493,7 @@ def make_blocks(
     joint_patch_points: int = 32,
     pair_segment: int = 64,
     law_slots: int = 32,
+    crossing_edges: int = 8,
 ):
     """Build ``(BlockConfig, BlockParams, BlockState)`` from convex polyhedra, validating every input.
 
@@ -497,8 +527,8 @@ def make_blocks(
       joint_water: block faces pressed together carry the hydrostatic pressure of a still water
         at ``joint_water_level`` (m, height along -gravity) of ``joint_water_density`` (kg/m^3,
         > 0); see ``blocks.joint_water``.  joint_aperture: m (>= 0), see :class:`BlockConfig`;
-        the broad-phase margin is raised to it.  joint_patch_points, pair_segment, law_slots: see
-        :class:`BlockConfig`.
+        the broad-phase margin is raised to it.  joint_patch_points, pair_segment, law_slots,
+        crossing_edges: see :class:`BlockConfig`.
 
     Returns:
       ``(config, params, state)``; state arrays in float32 (float64 under ``jax_enable_x64``).
@@ -631,6 +661,7 @@ def make_blocks(
         joint_patch_points=int(joint_patch_points),
         pair_segment=int(pair_segment),
         law_slots=int(law_slots),
+        crossing_edges=int(crossing_edges),
     )
 
     f = float_dtype()
@@ -681,7 +712,7 @@ def make_blocks(
 
 def _initial_state(config: BlockConfig, shape: BlockShape, pos, ori, vel, om) -> BlockState:
     f = shape.vertices.dtype
-    P, S = config.pair_capacity, config.contact_slots
+    P, L = config.pair_capacity, config.history_slots
     pairs = np.zeros((P, 2), np.int32)
     mask = np.zeros(P, bool)
     st = np.asarray(config.static_pairs, np.int32).reshape(-1, 2)
@@ -699,8 +730,8 @@ def _initial_state(config: BlockConfig, shape: BlockShape, pos, ori, vel, om) ->
         pair_mask=jnp.asarray(mask),
         plane=jnp.zeros((P, 3), f),
         plane_valid=jnp.zeros(P, bool),
-        shear=jnp.zeros((P, S, 3), f),
-        slot_active=jnp.zeros((P, S), bool),
+        shear=jnp.zeros((P, L, 3), f),
+        contact_feature=jnp.full((P, L), -1, jnp.int32),
     )
 
 
@@ -716,3 +747,17 @@ def resize_pairs(config: BlockConfig, state: BlockState, pair_capacity: int):
     config = dataclasses.replace(config, pair_capacity=pair_capacity)
     fresh = _initial_state(config, state.shape, state.x, state.q, state.v, state.omega)
     return config, fresh.replace(x0=state.x0, q0=state.q0)
+
+
+def fit_history(config: BlockConfig, state: BlockState) -> BlockState:
+    """Host: the state with its shear history shaped for ``config.history_slots`` (after the
+    driver grew ``law_slots`` or ``crossing_edges``): the slots kept, empty ones added (or the
+    last ones dropped, if it shrank). Call between steps."""
+    L, old = config.history_slots, state.shear.shape[1]
+    if L == old:
+        return state
+    if L < old:
+        return state.replace(shear=state.shear[:, :L], contact_feature=state.contact_feature[:, :L])
+    pad = L - old
+    return state.replace(shear=jnp.pad(state.shear, ((0, 0), (0, pad), (0, 0))),
+                         contact_feature=jnp.pad(state.contact_feature, ((0, 0), (0, pad)), constant_values=-1))

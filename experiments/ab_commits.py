@@ -1,0 +1,91 @@
+"""Two (or more) commits of rockjax timed by one benchmark script, alternated in fresh processes.
+
+A code change that cannot be switched on and off inside one process (a new state layout, say) is
+timed this way: each commit is checked out into a git worktree (``--worktrees``, default
+``/tmp/rockjax_ab``) and the benchmark script of *this* checkout runs against that commit's
+``src`` (``PYTHONPATH``), commit after commit, ``--repeats`` rounds, so that a slow spell of the
+shared machine hits all alike. Every JSON line the script prints is re-emitted with ``commit`` and
+``round`` added; then one summary record per group (``--by`` keys) with each commit's best
+``--metric`` and its ratio to the first commit's. JSON lines out.
+
+    .venv/bin/python experiments/ab_commits.py --commits 0b0b63c HEAD --repeats 2 \\
+        --by shape n_blocks --out experiments/results/bench_blocks_commits.jsonl -- \\
+        experiments/bench_blocks.py --shape rock --sizes 100 --no-fcp
+
+The benchmark script must run against every commit given (it may test for what a commit has).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+from jsonl_out import emit
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+
+def _git(*args, cwd=ROOT):
+    return subprocess.run(["git", *args], cwd=cwd, check=True, capture_output=True, text=True).stdout.strip()
+
+
+def worktree(commit: str, base: str) -> tuple[str, str]:
+    """(full sha, path of a worktree checked out at it), made if missing."""
+    sha = _git("rev-parse", commit)
+    path = os.path.join(base, sha[:12])
+    if not os.path.isdir(path):
+        os.makedirs(base, exist_ok=True)
+        _git("worktree", "add", "--detach", path, sha)
+    return sha, path
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--commits", nargs="+", required=True, help="commits (first: the reference of the ratios)")
+    ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--metric", default="block_steps_per_s", help="record field to compare (higher is better)")
+    ap.add_argument("--by", nargs="*", default=["bench", "n_blocks"], help="record fields that group the summary")
+    ap.add_argument("--worktrees", default="/tmp/rockjax_ab")
+    ap.add_argument("--out", default=None)
+    ap.add_argument("script", nargs=argparse.REMAINDER, help="-- SCRIPT [ARGS...], run with the commit's src first on PYTHONPATH")
+    a = ap.parse_args(argv)
+    script = a.script[1:] if a.script[:1] == ["--"] else a.script
+    if not script:
+        ap.error("give the benchmark script after --")
+    trees = [worktree(c, a.worktrees) for c in a.commits]
+    stamp = dict(date=time.strftime("%Y-%m-%d"), cmd="experiments/ab_commits.py " + " ".join(sys.argv[1:] if argv is None else argv))
+    best: dict = {}
+    for rnd in range(a.repeats):
+        for (sha, path), name in zip(trees, a.commits):
+            env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.join(path, "src"), HERE]))
+            proc = subprocess.run([sys.executable, *script], cwd=ROOT, env=env, capture_output=True, text=True)
+            if proc.returncode:
+                raise SystemExit(f"{name} ({sha[:12]}): the script failed:\n{proc.stderr[-3000:]}")
+            for line in proc.stdout.splitlines():
+                try:
+                    rec = json.loads(line)
+                except json.JSONDecodeError:
+                    continue
+                if not isinstance(rec, dict):
+                    continue
+                emit(dict(rec, commit=sha[:12], commit_arg=name, round=rnd, **stamp,
+                          load_avg_1m_at_save=os.getloadavg()[0]), a.out)
+                if a.metric in rec:
+                    key = tuple(rec.get(k) for k in a.by)
+                    b = best.setdefault(key, {})
+                    b[name] = max(b.get(name, float("-inf")), float(rec[a.metric]))
+    for key, b in best.items():
+        ref = b.get(a.commits[0])
+        emit(dict(bench="ab_commits", **dict(zip(a.by, key)), metric=a.metric,
+                  commits={n: _git("rev-parse", "--short=12", n) for n in a.commits}, best=b,
+                  ratio_to_first={n: v / ref for n, v in b.items()} if ref else None, repeats=a.repeats, **stamp),
+             a.out)
+
+
+if __name__ == "__main__":
+    main()
