@@ -227,6 +227,10 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
         SimulationError: a fatal status bit (non-finite values, particles off the grid, unstable dt).
     """
     config, params, state = scene.config, scene.params, scene.state
+    if state.blocks is not None:  # a scene whose BlockConfig slots were changed after it was built
+        from . import blocks
+
+        state = state.replace(blocks=blocks.fit_history(config.blocks, state.blocks))
     if not (t_end > 0 and math.isfinite(t_end)):
         raise ValueError(f"simulate: t_end must be a positive time in seconds (got {t_end})")
     check_params(config, params)

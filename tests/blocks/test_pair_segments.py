@@ -84,7 +84,8 @@ def test_segments_skip_and_match_one_pass(scene):
     assert cfg.crossing_slots < one.crossing_slots == cfg.max_edges  # crossings among selected edges
     g = jnp.asarray(GRAV)
     seg_out = jax.jit(lambda s: rb.contact_forces(s, par, cfg, dt=1e-4, gravity=g, return_info=True))(st)
-    one_out = jax.jit(lambda s: rb.contact_forces(s, par, one, dt=1e-4, gravity=g, return_info=True))(st)
+    one_out = jax.jit(lambda s: rb.contact_forces(s, par, one, dt=1e-4, gravity=g, return_info=True))(
+        rb.fit_history(one, st))
     live = np.asarray(seg_out[4]["pair_mask"])
     P = live.size
     per_seg = np.pad(live, (0, -P % SEG)).reshape(-1, SEG).any(1)
@@ -125,14 +126,17 @@ def test_segmented_rollout_grad_and_vmap(scene):
 
         def f(density, friction):
             p = dataclasses.replace(par, density=density, friction_angle=friction)
-            s, _ = run(p, st)
+            s, _ = run(p, rb.fit_history(c, st))
             return jnp.sum(s.x[1:, 0]) + jnp.sum(s.x[1:, 2])
 
         return f
 
     args = (par.density, par.friction_angle)
     s_seg, stat_seg = jax.jit(_rollout(cfg, n, dt))(par, st)
-    s_one, stat_one = jax.jit(_rollout(one, n, dt))(par, st)
+    with pytest.raises(ValueError, match="fit_history"):  # the state's history is shaped for cfg
+        jax.jit(_rollout(one, n, dt))(par, st)
+    st_one = rb.fit_history(one, st)
+    s_one, stat_one = jax.jit(_rollout(one, n, dt))(par, st_one)
     assert int(stat_seg) == int(stat_one) == 0
     np.testing.assert_allclose(np.asarray(s_seg.x), np.asarray(s_one.x), rtol=0, atol=1e-12)
     _assert_same_history(s_seg, s_one)

@@ -367,6 +367,10 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     B = config.n_blocks
     sh = state.shape
     f = state.x.dtype
+    if state.shear.shape[1] != config.history_slots:  # trace time: the shapes are static
+        raise ValueError(f"contact_forces: the state's shear history has {state.shear.shape[1]} slots per pair, "
+                         f"config.history_slots is {config.history_slots} (law_slots / crossing_edges changed): "
+                         "refit it with rockjax.blocks.fit_history(config, state)")
     Xw = world_vertices(state)
     Nw, Dw = world_planes(state)
     pairs, mask, status = candidate_pairs(config, Xw, sh.vertex_mask)
