@@ -394,6 +394,34 @@ def sec_blocks(doc: Doc):
                     [[r["n_blocks"], r["pair_capacity"], r["mean_pairs"], r["mean_contact_points"], r["steps"]]
                      + [r["best_wall_s"][nm] for nm in names] + [r["speedup_over_first"][names[-1]], r.get("date")]
                      for r in nab]))
+    cab = ab_records("bench_blocks_commits.jsonl",
+                     "python experiments/ab_commits.py --commits OLD NEW --by shape n_blocks --out "
+                     "experiments/results/bench_blocks_commits.jsonl -- experiments/bench_blocks.py --shape SHAPE ...",
+                     "ab_commits")
+    if cab:
+        doc.p("Commits against each other (`experiments/ab_commits.py`: the same benchmark run against each commit's "
+              "code in fresh processes, alternated; best block-steps/s of the rounds). Piles of boxes, and of random "
+              "rocks (convex hulls of 12 points, ~30 edges each, `bench_blocks.py --shape rock`).")
+        rows = []
+        for r in cab:
+            (a, b) = list(r["commits"])[:2]
+            rows.append([r.get("shape") or "box", r.get("n_blocks"), f"{a} ({r['commits'][a][:7]})",
+                         f"{b} ({r['commits'][b][:7]})", r["best"].get(a), r["best"].get(b),
+                         (r.get("ratio_to_first") or {}).get(b), r.get("repeats"), r.get("date")])
+        doc.p(table(["pile", "blocks", "before", "after", "before block-steps/s", "after block-steps/s", "after / before",
+                     "rounds", "date"], rows))
+    xab = ab_records("bench_blocks_crossing.jsonl",
+                     "python experiments/bench_blocks.py --shape rock --sizes 100 --ab-crossing 0 8 --out "
+                     "experiments/results/bench_blocks_crossing.jsonl", "blocks_crossing_ab")
+    if xab:
+        doc.p("Edge-edge crossings sought among the first `BlockConfig.crossing_edges` edges of each block with a part "
+              "inside the other (8, the default) against the crossings of every edge pair (0): best of the "
+              "alternated runs in one process.")
+        doc.p(table(["pile", "blocks", "edges per block (padded)", "contact points", "every edge pair s",
+                     "8 edges s", "speed-up", "date"],
+                    [[r.get("shape"), r["n_blocks"], r.get("max_edges"), r.get("mean_contact_points"),
+                      r["best_wall_s"].get("0"), r["best_wall_s"].get("8"), r["speedup_over_first"].get("8"),
+                      r.get("date")] for r in xab]))
     fcp = [r for r in recs if r.get("bench") == "fcp_iterations"]
     if fcp:
         doc.p(table(["FCP iterations", "cases", "fraction exact", "max depth err / L", "mean depth err / L"],
@@ -737,12 +765,12 @@ def sec_flags(doc: Doc):
           "dam-break step's forward + VJP (ms). Ratio = no_ynn_fusions / xla_defaults within a round.")
     by = {}
     for r in recs:
-        by.setdefault((r["case"], r["round"]), {})[r["flags"]] = r.get("ms_per_step", r.get("ms"))
+        by.setdefault((r.get("date", "-"), r["case"], r["round"]), {})[r["flags"]] = r.get("ms_per_step", r.get("ms"))
     rows = [[case, rnd, v.get("xla_defaults"), v.get("no_ynn_fusions"),
-             (v["no_ynn_fusions"] / v["xla_defaults"]) if "xla_defaults" in v and "no_ynn_fusions" in v else "-"]
-            for (case, rnd), v in sorted(by.items())]
+             (v["no_ynn_fusions"] / v["xla_defaults"]) if "xla_defaults" in v and "no_ynn_fusions" in v else "-", date]
+            for (date, case, rnd), v in sorted(by.items())]
     doc.p(f"Machine: {_machine_of(recs)}.")
-    doc.p(table(["case", "round", "XLA defaults", "YNN fusions off", "ratio"], rows))
+    doc.p(table(["case", "round", "XLA defaults", "YNN fusions off", "ratio", "date"], rows))
 
 
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_calibration, sec_piston,

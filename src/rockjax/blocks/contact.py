@@ -140,7 +140,7 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
     Edge-edge crossings are sought among the edges of each block with a part inside the other
     (the only ones whose crossing point can lie inside it), the first ``crossing_edges`` of them
     (``BlockConfig.crossing_edges``; 0 or >= nE: every edge, no selection); more set
-    ``edge_overflow``.
+    ``edge_overflow`` (unless the other block has none, when no crossing exists).
 
     Args:
       X*: [V,3] world vertices; m*: [V]; N*: [F,3] world normals; D*: [F] offsets; fm*: [F];
@@ -177,7 +177,9 @@ def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj
             cj = emj & (hi_j > eps) & (lo_j < 1 - eps) & (lo_j <= hi_j)
             idx_i, over_i = _first_k(ci, k)
             idx_j, over_j = _first_k(cj, k)
-            overflow = over_i | over_j
+            # a crossing needs an edge of each: edges of one block do not count while the other
+            # has none inside it (a rock's bottom edges within a floor slab's tolerance, say)
+            overflow = (over_i & jnp.any(cj)) | (over_j & jnp.any(ci))
 
             def take(a, idx):
                 return jnp.take(a, idx, axis=0, mode="fill", fill_value=0)
