@@ -78,3 +78,19 @@ def incline_scene(*, theta_deg, b, h, phi_deg, kn=1e6, ks=1e6, zeta=0.2, width=0
         velocities=None if v0 is None else np.stack([np.zeros(3), v0]),
     )
     return cfg, par, st, down, nrm
+
+
+def grown_by_driver(block_config, bit):
+    """The :class:`BlockConfig` the host driver's regrowth (``driver._grow``) makes of
+    ``block_config`` for the status bit ``bit`` (a blocks-only Config around it)."""
+    from rockjax.driver import _grow
+    from rockjax.types import Config
+
+    cfg = Config(n_fluid=0, n_wall=0, dt=1e-4, grid=None, cutoff=0.0, skin=0.0, blocks=block_config)
+    return _grow(cfg, 8, None, int(bit))[0].blocks
+
+
+def assert_same_loads(a, b):
+    """Forces and torques (the first two entries of ``a`` and ``b``) equal to round-off."""
+    for x, y in zip(a[:2], b[:2]):
+        np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-9)

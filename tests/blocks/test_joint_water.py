@@ -19,7 +19,7 @@ from scipy import integrate
 from rockjax.blocks import Motion, box, contact_forces, make_blocks
 from rockjax.blocks.joint_water import joint_water_load, submerged_parts
 
-from rollouts import incline_scene, run
+from rollouts import assert_same_loads, grown_by_driver, incline_scene, run
 
 RHO, G = 1000.0, 9.81
 GRAV = (0.0, 0.0, -G)
@@ -209,7 +209,6 @@ def test_patch_points_gathered_and_overflow_flagged(x64):
     ``joint_patch_points`` slots: the same load as from all 161 slots when they fit (the offset
     boxes' patch has 4 corners among its active points), and JOINT_PATCH_OVERFLOW when they do not
     (3 slots), which the driver's ``_grow`` cures by doubling the slots."""
-    from rockjax.driver import _grow
     from rockjax.types import Status
 
     pos = np.array([[0.0, 0.0, 0.15], [0.1, 0.15, 0.4 - 1e-5]])
@@ -223,13 +222,8 @@ def test_patch_points_gathered_and_overflow_flagged(x64):
         out[k] = (np.asarray(F), np.asarray(T), int(status), int(np.asarray(info["active"]).sum()))
     assert out[200][2] == 0 and out[8][2] == 0
     assert 3 < out[200][3] <= 8  # the patch's active points fit in 8 slots, not in 3
-    np.testing.assert_allclose(out[8][0], out[200][0], rtol=1e-12, atol=1e-9)
-    np.testing.assert_allclose(out[8][1], out[200][1], rtol=1e-12, atol=1e-9)
+    assert_same_loads(out[8], out[200])
     assert out[3][2] & Status.JOINT_PATCH_OVERFLOW
     assert Status.JOINT_PATCH_OVERFLOW & Status.growable()
     cfg3, _, _ = make_blocks(shapes, joint_patch_points=3, **kw)
-    from rockjax.types import Config
-
-    cfg = Config(n_fluid=0, n_wall=0, dt=1e-4, grid=None, cutoff=0.0, skin=0.0, blocks=cfg3)
-    grown, _ = _grow(cfg, 8, None, int(Status.JOINT_PATCH_OVERFLOW))
-    assert grown.blocks.joint_patch_points == 6
+    assert grown_by_driver(cfg3, Status.JOINT_PATCH_OVERFLOW).joint_patch_points == 6

@@ -26,6 +26,8 @@ import pytest
 import rockjax.blocks as rb
 from rockjax.blocks import Motion, box, make_blocks, slab
 
+from rollouts import assert_same_loads, grown_by_driver
+
 SEG = 4
 GRAV = (0.0, 0.0, -9.81)  # m/s^2; an array is made under float64 (a float32 g sits the stacks on a stick/slip knife edge)
 
@@ -157,11 +159,10 @@ def test_segmented_rollout_grad_and_vmap(scene):
 
 def test_law_slots_overflow_flagged_and_grown(x64):
     """Two boxes face on face (offset: 4 corners of the small one inside the large one, and
-    crossings): with 8 law slots the same loads as over all 161 slots; with 2 the pair has more
+    crossings): with 8 law slots the same loads as over all 81 slots; with 2 the pair has more
     points than slots, which sets CONTACT_POINT_OVERFLOW (a growable bit), and the driver's
     ``_grow`` doubles the slots."""
-    from rockjax.driver import _grow
-    from rockjax.types import Config, Status
+    from rockjax.types import Status
 
     pos = np.array([[0.0, 0.0, 0.15], [0.1, 0.15, 0.4 - 1e-4]])
     kw = dict(positions=pos, motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6)
@@ -174,14 +175,11 @@ def test_law_slots_overflow_flagged_and_grown(x64):
         out[k] = (np.asarray(F), np.asarray(T), int(status), int(np.asarray(info["active"]).sum()))
     assert out[0][2] == 0 and out[8][2] == 0
     assert 2 < out[0][3] <= 8, out[0][3]
-    np.testing.assert_allclose(out[8][0], out[0][0], rtol=1e-12, atol=1e-9)
-    np.testing.assert_allclose(out[8][1], out[0][1], rtol=1e-12, atol=1e-9)
+    assert_same_loads(out[8], out[0])
     assert out[2][2] & Status.CONTACT_POINT_OVERFLOW
     assert Status.CONTACT_POINT_OVERFLOW & Status.growable()
     cfg2, _, _ = make_blocks(shapes, law_slots=2, **kw)
-    grown, _ = _grow(Config(n_fluid=0, n_wall=0, dt=1e-4, grid=None, cutoff=0.0, skin=0.0, blocks=cfg2), 8, None,
-                     int(Status.CONTACT_POINT_OVERFLOW))
-    assert grown.blocks.law_slots == 4
+    assert grown_by_driver(cfg2, Status.CONTACT_POINT_OVERFLOW).law_slots == 4
     with pytest.raises(ValueError, match="law_slots"):
         make_blocks(shapes, law_slots=-1, **kw)
 
@@ -194,8 +192,7 @@ def test_crossing_edges_overflow_flagged_and_grown(x64):
     and the driver's ``_grow`` doubles it (at most ``max_edges``). The driver's ``resize`` then
     fits the shear history to grown law slots, keeping what it held."""
     from rockjax.blocks import quat_from_axis_angle
-    from rockjax.driver import _grow
-    from rockjax.types import Config, Status
+    from rockjax.types import Status
 
     pos = np.array([[0.0, 0.0, 0.15], [0.0, 0.0, 0.45 - 1e-4]])
     q = np.stack([[1.0, 0, 0, 0], quat_from_axis_angle((0, 0, 1), np.pi / 4)])
@@ -215,17 +212,13 @@ def test_crossing_edges_overflow_flagged_and_grown(x64):
     assert out[4][3].keys() == out[0][3].keys()
     for f in out[0][3]:
         np.testing.assert_allclose(out[4][3][f], out[0][3][f], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(out[4][0], out[0][0], rtol=1e-12, atol=1e-9)
-    np.testing.assert_allclose(out[4][1], out[0][1], rtol=1e-12, atol=1e-9)
+    assert_same_loads(out[4], out[0])
     assert out[2][2] & Status.CROSSING_EDGE_OVERFLOW
     assert Status.CROSSING_EDGE_OVERFLOW & Status.growable()
-    cfg2, par2, st2 = make_blocks(shapes, crossing_edges=2, **kw)
-    cfg_all = Config(n_fluid=0, n_wall=0, dt=1e-4, grid=None, cutoff=0.0, skin=0.0, blocks=cfg2)
-    grown, _ = _grow(cfg_all, 8, None, int(Status.CROSSING_EDGE_OVERFLOW))
-    assert grown.blocks.crossing_edges == 4
-    grown, _ = _grow(grown.replace(blocks=dataclasses.replace(cfg2, crossing_edges=8)), 8, None,
-                     int(Status.CROSSING_EDGE_OVERFLOW))
-    assert grown.blocks.crossing_edges == 12 == cfg2.max_edges
+    cfg2, _, _ = make_blocks(shapes, crossing_edges=2, **kw)
+    assert grown_by_driver(cfg2, Status.CROSSING_EDGE_OVERFLOW).crossing_edges == 4
+    assert grown_by_driver(dataclasses.replace(cfg2, crossing_edges=8),
+                           Status.CROSSING_EDGE_OVERFLOW).crossing_edges == 12 == cfg2.max_edges
     with pytest.raises(ValueError, match="crossing_edges"):
         make_blocks(shapes, crossing_edges=-1, **kw)
     # the history of the 4-edge run, refitted to 64 law slots: the same springs, empty slots added
