@@ -6,6 +6,7 @@ MuJoCo's CPU simulator as a reference ratio.  Prints JSON lines.
     .venv/bin/python experiments/bench_blocks.py --sizes 100 --ab-segments 0 64   # segmented narrow phase vs one pass
     .venv/bin/python experiments/bench_blocks.py --ab-narrow   # FCP per edge direction / law over active slots, A/B
     .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-crossing 0 8   # crossings among selected edges
+    .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-fcp-iterations 2 0   # the FCP rounds' cost
 
 Pile: N boxes (0.18-0.2 m, 2650 kg/m^3) stacked ~4 high in columns in contact on a fixed floor
 slab, with 2 mm lateral jitter (no initial overlap); ``--shape rock``: the same columns of rocks
@@ -245,6 +246,9 @@ def main():
     ap.add_argument("--ab-crossing", type=int, nargs="+", default=None,
                     help="instead: time each pile with these BlockConfig.crossing_edges values (0 = crossings of "
                          "every edge pair), alternated --repeats times in this process, and print the ratios")
+    ap.add_argument("--ab-fcp-iterations", type=int, nargs="+", default=None,
+                    help="instead: time each pile with these BlockConfig.fcp_iterations (what the FCP rounds cost; "
+                         "boxes run none without joint water), alternated --repeats times in this process")
     ap.add_argument("--shape", choices=("box", "rock"), default="box", help="pile of boxes or of random rocks")
     ap.add_argument("--no-mujoco", action="store_true")
     ap.add_argument("--repeats", type=int, default=2)
@@ -288,6 +292,11 @@ def main():
         for n in a.sizes:
             alternate(n, [(ce, dict(crossing_edges=ce, shape=a.shape)) for ce in a.ab_crossing], "blocks_crossing_ab",
                       keys=("shape", "max_edges", "mean_contact_points"))
+        return
+    if a.ab_fcp_iterations:
+        for n in a.sizes:
+            alternate(n, [(it, dict(fcp_iterations=it, shape=a.shape)) for it in a.ab_fcp_iterations],
+                      "blocks_fcp_iterations_ab", keys=("shape", "max_edges", "fcp_directions", "mean_contact_points"))
         return
     for n in a.sizes:
         r = run_blocks(n, steps_for(n), shape=a.shape)

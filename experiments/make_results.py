@@ -422,6 +422,20 @@ def sec_blocks(doc: Doc):
                     [[r.get("shape"), r["n_blocks"], r.get("max_edges"), r.get("mean_contact_points"),
                       r["best_wall_s"].get("0"), r["best_wall_s"].get("8"), r["speedup_over_first"].get("8"),
                       r.get("date")] for r in xab]))
+    iab = ab_records("bench_blocks_fcp_iterations.jsonl",
+                     "python experiments/bench_blocks.py --shape rock --sizes 100 --ab-fcp-iterations 2 0 --out "
+                     "experiments/results/bench_blocks_fcp_iterations.jsonl", "blocks_fcp_iterations_ab")
+    if iab:
+        doc.p("What the FCP rounds cost on rocks (no parallel edges: every edge its own direction, so the complete "
+              "start of boxes does not apply): `BlockConfig.fcp_iterations` 2 (the default) against 0 (the start "
+              "and the final differentiable round only; not a setting to use: the iterations are what make a cold "
+              "plane exact), best of the alternated runs in one process.")
+        names = list(iab[0]["best_wall_s"])
+        doc.p(table(["pile", "blocks", "edge directions", "contact points"] + [f"{nm} iterations s" for nm in names]
+                    + [f"speed-up of {names[-1]}", "date"],
+                    [[r.get("shape"), r["n_blocks"], r.get("fcp_directions"), r.get("mean_contact_points")]
+                     + [r["best_wall_s"][nm] for nm in names] + [r["speedup_over_first"][names[-1]], r.get("date")]
+                     for r in iab]))
     fcp = [r for r in recs if r.get("bench") == "fcp_iterations"]
     if fcp:
         doc.p(table(["FCP iterations", "cases", "fraction exact", "max depth err / L", "mean depth err / L"],
