@@ -92,15 +92,13 @@ def resize(state: State, config: Config) -> State:
     state = state.replace(status=jnp.zeros((), jnp.int32))
     if state.nbrs is not None:
         state = state.replace(nbrs=empty_neighbours(config, state.particles.x))
-    if state.blocks is not None and state.blocks.pairs.shape[0] != config.blocks.pair_capacity:
-        from . import blocks
-
-        _, fresh = blocks.resize_pairs(config.blocks, state.blocks, config.blocks.pair_capacity)
-        state = state.replace(blocks=fresh)
     if state.blocks is not None:
         from . import blocks
 
-        state = state.replace(blocks=blocks.fit_history(config.blocks, state.blocks))
+        b = state.blocks
+        if b.pairs.shape[0] != config.blocks.pair_capacity:
+            _, b = blocks.resize_pairs(config.blocks, b, config.blocks.pair_capacity)
+        state = state.replace(blocks=blocks.fit_history(config.blocks, b))
     return state
 
 

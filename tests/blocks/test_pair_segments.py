@@ -157,6 +157,13 @@ def test_segmented_rollout_grad_and_vmap(scene):
     np.testing.assert_allclose(np.asarray(batched), each, rtol=1e-12)
 
 
+def _forces(shapes, **kw):
+    """``contact_forces`` (jitted, with info) of the blocks ``make_blocks(shapes, **kw)`` makes:
+    ``(F, T, history, status, info)``."""
+    cfg, par, st = make_blocks(shapes, **kw)
+    return jax.jit(lambda s: rb.contact_forces(s, par, cfg, dt=1e-4, return_info=True))(st)
+
+
 def test_law_slots_overflow_flagged_and_grown(x64):
     """Two boxes face on face (offset: 4 corners of the small one inside the large one, and
     crossings): with 8 law slots the same loads as over all 81 slots; with 2 the pair has more
@@ -169,9 +176,7 @@ def test_law_slots_overflow_flagged_and_grown(x64):
     shapes = [box(0.3, 0.3, 0.3), box(0.2, 0.2, 0.2)]
     out = {}
     for k in (0, 8, 2):
-        cfg, par, st = make_blocks(shapes, law_slots=k, **kw)
-        forces = jax.jit(lambda s, c=cfg, p=par: rb.contact_forces(s, p, c, dt=1e-4, return_info=True))
-        F, T, _, status, info = forces(st)
+        F, T, _, status, info = _forces(shapes, law_slots=k, **kw)
         out[k] = (np.asarray(F), np.asarray(T), int(status), int(np.asarray(info["active"]).sum()))
     assert out[0][2] == 0 and out[8][2] == 0
     assert 2 < out[0][3] <= 8, out[0][3]
@@ -201,9 +206,7 @@ def test_crossing_edges_overflow_flagged_and_grown(x64):
     shapes = [box(0.3, 0.3, 0.3), box(0.3, 0.3, 0.3)]
     out = {}
     for k in (0, 4, 2):
-        cfg, par, st = make_blocks(shapes, crossing_edges=k, **kw)
-        forces = jax.jit(lambda s, c=cfg, p=par: rb.contact_forces(s, p, c, dt=1e-4, return_info=True))
-        F, T, h, status, info = forces(st)
+        F, T, h, status, info = _forces(shapes, crossing_edges=k, **kw)
         act = np.asarray(info["active"])[0]
         out[k] = (np.asarray(F), np.asarray(T), int(status), dict(zip(np.asarray(info["feature"])[0][act].tolist(),
                                                                        np.asarray(info["points"])[0][act])), h)

@@ -80,6 +80,14 @@ def _by_direction(e, m, dirs):
     return e[rep], dm & jnp.any(member & m[None, :], -1)
 
 
+def _crosses(ea, ma, eb, mb):
+    """Every cross product of an edge vector of ``ea`` [Ka,3] and one of ``eb`` [Kb,3], flattened
+    [Ka Kb, 3], and which are valid: both edges in their masks and not parallel."""
+    cr = jnp.cross(ea[:, None, :], eb[None, :, :]).reshape(-1, 3)
+    ref = (jnp.sum(ea * ea, -1)[:, None] * jnp.sum(eb * eb, -1)[None, :]).reshape(-1)
+    return cr, (ma[:, None] & mb[None, :]).reshape(-1) & (jnp.sum(cr * cr, -1) > 1e-10 * ref)
+
+
 def _local_candidates(n, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, scale, dirs_i=None, dirs_j=None):
     """Seed candidate types a-d at the support features of the plane n, plus n itself (last).
 
@@ -108,16 +116,9 @@ def _local_candidates(n, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, sca
     mb = emj & (set_j[ej[:, 0]] | set_j[ej[:, 1]])
     ea, ma = _by_direction(ea, ma, dirs_i)
     eb, mb = _by_direction(eb, mb, dirs_j)
-    Ka, Kb = ea.shape[0], eb.shape[0]
-    cr = jnp.cross(ea[:, None, :], eb[None, :, :]).reshape(Ka * Kb, 3)
-    la = jnp.sum(ea * ea, -1)
-    lb = jnp.sum(eb * eb, -1)
-    cr_ok = (ma[:, None] & mb[None, :]).reshape(-1)
-    cr_len = (la[:, None] * lb[None, :]).reshape(-1)
-    s_cr = jnp.sum(cr * cr, -1)
-    cr_ok = cr_ok & (s_cr > 1e-10 * cr_len)  # parallel edges -> invalid
+    cr, cr_ok = _crosses(ea, ma, eb, mb)  # type c; parallel edges invalid
     e_all = jnp.concatenate([ea, eb], 0)
-    l_all = jnp.concatenate([la, lb], 0)
+    l_all = jnp.sum(e_all * e_all, -1)
     m_all = jnp.concatenate([ma, mb], 0)
     proj = jnp.sum(e_all * d, -1) / jnp.where(m_all, l_all, 1.0)
     perp = d - proj[:, None] * e_all  # type d
@@ -170,11 +171,9 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
     if dirs_i is not None and dirs_j is not None and sat_start(max(dirs_i[1].shape[0], dirs_j[1].shape[0])):
         da = sXi[ei[dirs_i[1], 1]] - sXi[ei[dirs_i[1], 0]]  # [nD, 3]
         db = sXj[ej[dirs_j[1], 1]] - sXj[ej[dirs_j[1], 0]]
-        cr = jnp.cross(da[:, None, :], db[None, :, :]).reshape(-1, 3)
-        s_cr = jnp.sum(cr * cr, -1)
-        ref = (jnp.sum(da * da, -1)[:, None] * jnp.sum(db * db, -1)[None, :]).reshape(-1)
+        cr, cr_ok = _crosses(da, dirs_i[2], db, dirs_j[2])
         init.append(cr)
-        init_ok.append((dirs_i[2][:, None] & dirs_j[2][None, :]).reshape(-1) & (s_cr > 1e-10 * ref))
+        init_ok.append(cr_ok)
     init, init_ok = _normalise(jnp.concatenate(init, 0), jnp.concatenate(init_ok, 0), 1e-30)
     n0, g0 = _best(init, init_ok, sXi, mi, sXj, mj)
 
