@@ -7,6 +7,7 @@ MuJoCo's CPU simulator as a reference ratio.  Prints JSON lines.
     .venv/bin/python experiments/bench_blocks.py --ab-narrow   # FCP per edge direction / law over active slots, A/B
     .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-crossing 0 8   # crossings among selected edges
     .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-fcp-iterations 2 0   # the FCP rounds' cost
+    .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-support-edges 0 -1   # FCP rounds over the support sets' edges
 
 Pile: N boxes (0.18-0.2 m, 2650 kg/m^3) stacked ~4 high in columns in contact on a fixed floor
 slab, with 2 mm lateral jitter (no initial overlap); ``--shape rock``: the same columns of rocks
@@ -160,7 +161,7 @@ def run_blocks(n, steps, chunk=50, pair_segment=64, edges_as_directions=False, s
     nsteps = nch * chunk
     return dict(bench="blocks_pile", shape=shape, n_blocks=n, broadphase=bp.value, pair_capacity=cfg.pair_capacity,
                 pair_segment=cfg.pair_segment, law_slots=cfg.law_slots,
-                crossing_edges=getattr(cfg, "crossing_edges", None),
+                crossing_edges=getattr(cfg, "crossing_edges", None), support_edges=getattr(cfg, "support_edges", None),
                 max_edges=cfg.max_edges, fcp_per_edge=edges_as_directions,
                 fcp_directions=int(st.shape.direction_edge.shape[1]),
                 contact_slots=cfg.contact_slots, fcp_iterations=cfg.fcp_iterations, dt=dt, steps=nsteps,
@@ -249,6 +250,9 @@ def main():
     ap.add_argument("--ab-fcp-iterations", type=int, nargs="+", default=None,
                     help="instead: time each pile with these BlockConfig.fcp_iterations (what the FCP rounds cost; "
                          "boxes run none without joint water), alternated --repeats times in this process")
+    ap.add_argument("--ab-support-edges", type=int, nargs="+", default=None,
+                    help="instead: time each pile with these BlockConfig.support_edges (0 = every edge direction in "
+                         "each FCP round; -1 = make_blocks' default, the most any face touches), alternated")
     ap.add_argument("--shape", choices=("box", "rock"), default="box", help="pile of boxes or of random rocks")
     ap.add_argument("--no-mujoco", action="store_true")
     ap.add_argument("--repeats", type=int, default=2)
@@ -297,6 +301,12 @@ def main():
         for n in a.sizes:
             alternate(n, [(it, dict(fcp_iterations=it, shape=a.shape)) for it in a.ab_fcp_iterations],
                       "blocks_fcp_iterations_ab", keys=("shape", "max_edges", "fcp_directions", "mean_contact_points"))
+        return
+    if a.ab_support_edges:
+        for n in a.sizes:
+            alternate(n, [(k, dict(support_edges=None if k < 0 else k, shape=a.shape)) for k in a.ab_support_edges],
+                      "blocks_support_edges_ab", keys=("shape", "max_edges", "fcp_directions", "support_edges",
+                                                       "mean_contact_points", "status"))
         return
     for n in a.sizes:
         r = run_blocks(n, steps_for(n), shape=a.shape)

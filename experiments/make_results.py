@@ -436,6 +436,19 @@ def sec_blocks(doc: Doc):
                     [[r.get("shape"), r["n_blocks"], r.get("fcp_directions"), r.get("mean_contact_points")]
                      + [r["best_wall_s"][nm] for nm in names] + [r["speedup_over_first"][names[-1]], r.get("date")]
                      for r in iab]))
+    sab = ab_records("bench_blocks_support_edges.jsonl",
+                     "python experiments/bench_blocks.py --shape rock --sizes 100 --ab-support-edges 0 -1 --out "
+                     "experiments/results/bench_blocks_support_edges.jsonl", "blocks_support_edges_ab")
+    if sab:
+        doc.p("Each FCP round's edge candidates (seed types c, d) built from the edge directions touching the support "
+              "sets, gathered into `BlockConfig.support_edges` rows (-1: `make_blocks`' default, the most any face of "
+              "the blocks touches) against every direction (0): the same candidates in the same order, so the same "
+              "planes; best of the alternated runs in one process.")
+        doc.p(table(["pile", "blocks", "edge directions", "support_edges", "contact points", "every direction s",
+                     "gathered s", "speed-up", "status", "date"],
+                    [[r.get("shape"), r["n_blocks"], r.get("fcp_directions"), r.get("support_edges"),
+                      r.get("mean_contact_points"), r["best_wall_s"].get("0"), r["best_wall_s"].get("-1"),
+                      r["speedup_over_first"].get("-1"), r.get("status"), r.get("date")] for r in sab]))
     fcp = [r for r in recs if r.get("bench") == "fcp_iterations"]
     if fcp:
         doc.p(table(["FCP iterations", "cases", "fraction exact", "max depth err / L", "mean depth err / L"],

@@ -164,6 +164,8 @@ def _grow(config: Config, period: int, state: State, bits: int) -> tuple[Config,
         grown["law_slots"] = min(2 * b.law_slots, b.contact_slots)
     if bits & Status.CROSSING_EDGE_OVERFLOW:
         grown["crossing_edges"] = min(2 * b.crossing_edges, b.max_edges)
+    if bits & Status.SUPPORT_EDGE_OVERFLOW:
+        grown["support_edges"] = min(2 * b.support_edges, b.max_edges)
     if grown:
         changes["blocks"] = dataclasses.replace(b, **grown)
     if bits & Status.NEIGHBOUR_OVERFLOW:

@@ -52,6 +52,13 @@ def padded(poly: ConvexPolyhedron):
                 dirs=(idx(pk.edge_direction[0]), idx(pk.direction_edge[0]), pk.direction_mask[0]))
 
 
+def support_edges_of(*polys, multiple: int = 4) -> int:
+    """``make_blocks``' default ``support_edges`` for these blocks (the most edge directions touching
+    one face), rounded up to a multiple of ``multiple`` (fewer compiled variants in the tests)."""
+    k = max(p.support_directions() for p in polys)
+    return -(-k // multiple) * multiple
+
+
 def world(poly: ConvexPolyhedron, q, x):
     R = np.asarray(quat_matrix(jnp.asarray(q, jnp.float64) if jax.config.jax_enable_x64 else jnp.asarray(q)),
                    np.float64)
@@ -91,10 +98,11 @@ def sat(pi, qi, xi, pj, qj, xj):
 
 
 @functools.lru_cache(maxsize=None)
-def fcp_fn(iterations: int, by_direction: bool = True, crossing_edges: int = 0):
+def fcp_fn(iterations: int, by_direction: bool = True, crossing_edges: int = 0, support_edges: int = 0):
     """Jitted ``(bi, qi, xi, bj, qj, xj, n_prev, prev_valid) -> dict`` on padded blocks; with
     ``by_direction`` the FCP scores edge directions (as ``contact_forces`` does), else every edge;
-    ``crossing_edges``: of ``pair_contacts`` (0: crossings among every edge)."""
+    ``crossing_edges``: of ``pair_contacts`` (0: crossings among every edge); ``support_edges``: of
+    ``fcp_pair`` (0: every direction in each round)."""
 
     def run(bi, qi, xi, bj, qj, xj, n_prev, prev_valid):
         Ri, Rj = quat_matrix(qi), quat_matrix(qj)
@@ -106,7 +114,7 @@ def fcp_fn(iterations: int, by_direction: bool = True, crossing_edges: int = 0):
         out = fcp_pair(Xi, bi["vm"], Ni, bi["fm"], bi["e"], bi["em"],
                        Xj, bj["vm"], Nj, bj["fm"], bj["e"], bj["em"], xi, xj, n_prev, prev_valid,
                        bi["dirs"] if by_direction else None, bj["dirs"] if by_direction else None,
-                       iterations=iterations)
+                       iterations=iterations, support_edges=support_edges)
         pc = pair_contacts(Xi, bi["vm"], Ni, Di, bi["fm"], bi["e"], bi["em"], bi["r"],
                            Xj, bj["vm"], Nj, Dj, bj["fm"], bj["e"], bj["em"], bj["r"],
                            out["normal"], out["gap"], tol_rel=1e-4, edge_contacts=True, crossing_edges=crossing_edges)

@@ -19,13 +19,18 @@ from hypothesis import strategies as st
 
 from rockjax.blocks import box, quat_from_axis_angle
 
-from fcp_cases import fcp_fn, padded, place_at_gap, random_block, random_rotation, sat
+from fcp_cases import fcp_fn, padded, place_at_gap, random_block, random_rotation, sat, support_edges_of
 
 ITER = 2  # the default make_blocks fcp_iterations
 
 
-def run_fcp(pi, qi, xi, pj, qj, xj, *, iterations=ITER, n_prev=None, by_direction=True):
-    f = fcp_fn(iterations, by_direction)
+def run_fcp(pi, qi, xi, pj, qj, xj, *, iterations=ITER, n_prev=None, by_direction=True, support_edges=None):
+    """The FCP and contact points of a pair; by default with the rounds' candidates built from the
+    edges touching the support sets, as ``contact_forces`` builds them (``support_edges``: the most
+    edge directions touching a face of either block, ``fcp_cases.support_edges_of``)."""
+    if support_edges is None:
+        support_edges = support_edges_of(pi, pj) if by_direction else 0
+    f = fcp_fn(iterations, by_direction, 0, support_edges)
     out = f(padded(pi), jnp.asarray(qi, jnp.float32), jnp.asarray(xi, jnp.float32), padded(pj),
             jnp.asarray(qj, jnp.float32), jnp.asarray(xj, jnp.float32),
             jnp.zeros(3) if n_prev is None else jnp.asarray(n_prev, jnp.float32), jnp.bool_(n_prev is not None))
@@ -52,6 +57,7 @@ def test_separated_pairs_give_no_contact(seed, target):
     g, _, _ = sat(pi, qi, xi, pj, qj, xj)
     assert g > 0
     o = run_fcp(pi, qi, xi, pj, qj, xj)
+    assert not o["support_overflow"]
     assert o["gap"] > 0, (g, o["gap"])
     assert not o["active"].any()
     # the plane is a sensible separating plane: a local search may stop short of the best gap
@@ -66,6 +72,7 @@ def test_overlapping_pairs_match_min_penetration(seed, target):
     g, axis, second = sat(pi, qi, xi, pj, qj, xj)
     assert g < 0
     o = run_fcp(pi, qi, xi, pj, qj, xj)
+    assert not o["support_overflow"]
     assert abs(o["gap"] - g) <= 2e-5 * L, (g, o["gap"])
     if second < g - 1e-3 * L:  # unique minimum-penetration axis
         ang = np.degrees(np.arccos(np.clip(o["normal"] @ axis, -1, 1)))
@@ -196,6 +203,66 @@ def test_direction_candidates_find_the_same_plane(seed):
     assert abs(a["gap"] - b["gap"]) <= 1e-6 * L, (a["gap"], b["gap"])
     assert abs(a["gap"] - g) <= 2e-5 * L, (a["gap"], g)
     assert abs(a["normal"] @ b["normal"]) > 1 - 1e-6
+
+
+def test_support_directions():
+    """``ConvexPolyhedron.support_directions``: the most edge directions touching one face (the
+    largest support set). Closed forms: a box's face touches all 3 directions, a tetrahedron's all
+    6 edges; a pentagonal prism's pentagon touches its 5 base directions and the vertical (6), a
+    side face only 4. Random hulls: equal to the count found from each face normal's support set
+    taken from the vertex projections (not the face loops), and no random direction's support set
+    touches more."""
+    from rockjax.blocks import ConvexPolyhedron, prism
+
+    tet = ConvexPolyhedron.from_vertices(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]))
+    pent = prism([(np.cos(a), np.sin(a)) for a in 2 * np.pi * np.arange(5) / 5], 1.0)
+    assert box(1.0, 2.0, 3.0).support_directions() == 3
+    assert tet.support_directions() == 6
+    assert pent.support_directions() == 6 and len(pent.edge_directions()[1]) == 6
+
+    def touching(poly, group, n):
+        p = poly.vertices @ n
+        on = p >= p.max() - 1e-9
+        return len(np.unique(group[on[poly.edges[:, 0]] | on[poly.edges[:, 1]]]))
+
+    rng = np.random.default_rng(5)
+    for _ in range(10):
+        rock = random_block(rng, 12)
+        group, _ = rock.edge_directions()
+        by_face = max(touching(rock, group, n) for n in rock.face_normal)
+        assert rock.support_directions() == by_face
+        assert 3 <= by_face < rock.n_edges
+        dirs = rng.normal(size=(200, 3))
+        assert max(touching(rock, group, n) for n in dirs) <= by_face
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_support_edges_find_the_same_plane(seed, x64):
+    """Each FCP round built from the edge directions touching the support sets, gathered into
+    ``support_edges`` rows (``make_blocks``' default: the most any face touches), scores the same
+    valid candidates in the same order as a round over every direction: the same plane, bit for
+    bit, in float64 (overlapping and separated random hulls, warm and cold starts). Fewer rows than
+    a support set touches set ``support_overflow``."""
+    rng = np.random.default_rng(100 + seed)
+    pi, pj = random_block(rng, 12), random_block(rng, int(rng.integers(8, 13)))
+    qi, qj = random_rotation(rng), random_rotation(rng)
+    L = min(pi.bounding_radius, pj.bounding_radius)
+    target = (-1 if seed % 2 else 1) * rng.uniform(1e-3, 0.1) * L
+    xj = place_at_gap(pi, qi, pj, qj, rng.normal(size=3), target)
+    k = max(pi.support_directions(), pj.support_directions())
+    assert k < pi.n_edges  # the gathering is exercised
+    n_prev = rng.normal(size=3)
+    n_prev /= np.linalg.norm(n_prev)
+    for prev in (np.zeros(3), n_prev):
+        args = (padded(pi), jnp.asarray(qi), jnp.zeros(3), padded(pj), jnp.asarray(qj), jnp.asarray(xj),
+                jnp.asarray(prev), jnp.bool_(bool(np.any(prev))))
+        full = jax.tree.map(np.asarray, fcp_fn(4, True, 0, 0)(*args))
+        gathered = jax.tree.map(np.asarray, fcp_fn(4, True, 0, k)(*args))
+        assert not gathered["support_overflow"]
+        np.testing.assert_array_equal(gathered["normal"], full["normal"])
+        assert gathered["gap"] == full["gap"] and gathered["changes"] == full["changes"]
+        assert (gathered["gap"] < 0) == (target < 0)
+        assert fcp_fn(4, True, 0, 2)(*args)["support_overflow"]  # a vertex alone touches >= 3
 
 
 def test_box_pairs_start_from_every_separating_axis(x64):

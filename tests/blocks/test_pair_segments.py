@@ -234,3 +234,41 @@ def test_crossing_edges_overflow_flagged_and_grown(x64):
     np.testing.assert_array_equal(np.asarray(wide.shear)[:, :L], np.asarray(h4.shear))
     np.testing.assert_array_equal(np.asarray(wide.contact_feature)[:, :L], np.asarray(h4.contact_feature))
     assert np.all(np.asarray(wide.contact_feature)[:, L:] == -1) and not np.any(np.asarray(wide.shear)[:, L:])
+
+
+def test_support_edges_overflow_flagged_and_grown(x64):
+    """Two random rocks (12-vertex hulls, ~30 edges each, one direction per edge: the FCP rounds
+    run) pressed together: ``make_blocks``' default ``support_edges`` (the most edge directions
+    touching a face, ``ConvexPolyhedron.support_directions``) gives the plane, points and loads of
+    rounds over every direction (0); 2 is fewer than any support set touches, which sets
+    SUPPORT_EDGE_OVERFLOW (a growable bit), and the driver's ``_grow`` doubles it (at most
+    ``max_edges``)."""
+    from rockjax.blocks import quat_from_axis_angle
+    from rockjax.types import Status
+
+    from fcp_cases import place_at_gap, random_block
+
+    rng = np.random.default_rng(4)
+    shapes = [random_block(rng, 12), random_block(rng, 12)]
+    q = np.stack([[1.0, 0, 0, 0], quat_from_axis_angle((0.3, 0.2, 1), 0.7)])
+    pos = np.stack([np.zeros(3), place_at_gap(shapes[0], q[0], shapes[1], q[1], (0.2, -0.1, 1.0), -0.02)])
+    kw = dict(positions=pos, orientations=q, motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6)
+    cfg, _, _ = make_blocks(shapes, **kw)
+    assert cfg.support_edges == max(p.support_directions() for p in shapes) < cfg.max_edges
+    out = {}
+    for k in (0, None, 2):
+        F, T, _, status, info = _forces(shapes, support_edges=k, **kw)
+        out[k] = (np.asarray(F), np.asarray(T), int(status), np.asarray(info["normal"])[0],
+                  int(np.asarray(info["active"]).sum()))
+    assert out[0][2] == 0 and out[None][2] == 0
+    assert out[0][4] > 0  # in contact
+    np.testing.assert_array_equal(out[None][3], out[0][3])
+    assert_same_loads(out[None], out[0])
+    assert out[2][2] & Status.SUPPORT_EDGE_OVERFLOW
+    assert Status.SUPPORT_EDGE_OVERFLOW & Status.growable()
+    cfg2, _, _ = make_blocks(shapes, support_edges=2, **kw)
+    assert grown_by_driver(cfg2, Status.SUPPORT_EDGE_OVERFLOW).support_edges == 4
+    assert grown_by_driver(dataclasses.replace(cfg2, support_edges=24),
+                           Status.SUPPORT_EDGE_OVERFLOW).support_edges == cfg2.max_edges
+    with pytest.raises(ValueError, match="support_edges"):
+        make_blocks(shapes, support_edges=-1, **kw)

@@ -61,7 +61,7 @@ import jax.numpy as jnp
 
 from ..types import Status, _pytree_dataclass
 from .broadphase import candidate_pairs, pairs_are_static
-from .fcp import fcp_pair, sat_start
+from .fcp import _first_k, fcp_pair, sat_start
 from .joint_water import joint_water_load
 from .model import BlockConfig, BlockParams, BlockState, Motion, block_mass, world_planes, world_vertices
 from .rotation import project, safe_norm
@@ -118,16 +118,6 @@ class PairContacts(NamedTuple):
     active: jax.Array  #: [S] bool
     feature: jax.Array  #: [S] int32, each slot's contact feature (``BlockState.contact_feature``)
     edge_overflow: jax.Array  #: [] bool: a block has more edges inside the other than the crossing slots
-
-
-def _first_k(cand, k: int):
-    """The indices of the first ``k`` True entries of ``cand`` [n] (in order; ``n`` past the
-    count) and whether there were more than ``k``: ``(idx [k] int32, overflow [])``."""
-    n = cand.shape[0]
-    rank = jnp.cumsum(cand.astype(jnp.int32)) - 1
-    hit = cand[None, :] & (rank[None, :] == jnp.arange(k, dtype=jnp.int32)[:, None])  # [k, n]
-    idx = jnp.where(jnp.any(hit, -1), jnp.argmax(hit, -1).astype(jnp.int32), n)
-    return idx, rank[-1] >= k
 
 
 def pair_contacts(Xi, mi, Ni, Di, fmi, ei, emi, ri, Xj, mj, Nj, Dj, fmj, ej, emj, rj, n, gap, *,
@@ -396,12 +386,14 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     # blocks with few edge directions (boxes, prisms) start the FCP from every separating axis: an
     # overlapping pair's plane is then exact without iterations, and only the joint water's fade
     # reads a separated pair's gap (which the iterations may still raise)
-    iterations = 0 if sat_start(sh.direction_edge.shape[1]) and not config.joint_water else config.fcp_iterations
+    n_dir = sh.direction_edge.shape[1]
+    iterations = 0 if sat_start(n_dir) and not config.joint_water else config.fcp_iterations
+    support_edges = config.support_edges if 0 < config.support_edges < n_dir else 0
 
     def pair_forces(i, j, mask, plane, plane_valid, shear, feature_old):
         """FCP, contact points and the contact law of the pairs (i, j) [S] (a segment of the
         buffer): per-pair forces on j and torques on i and j, the new shear history, diagnostics."""
-        fcp = jax.vmap(lambda *a: fcp_pair(*a, iterations=iterations))(
+        fcp = jax.vmap(lambda *a: fcp_pair(*a, iterations=iterations, support_edges=support_edges))(
             Xw[i], sh.vertex_mask[i], Nw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i],
             Xw[j], sh.vertex_mask[j], Nw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j],
             state.x[i], state.x[j], plane, plane_valid,
@@ -472,7 +464,8 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
             rows = jnp.arange(a.shape[0])[:, None]
             return jnp.zeros(active_all.shape + a.shape[2:], a.dtype).at[rows, slot].set(a, mode="drop")
 
-        out = dict(normal=n, gap=fcp["gap"], fcp_changes=fcp["changes"], points=pts_all, depth=depth_all,
+        out = dict(normal=n, gap=fcp["gap"], fcp_changes=fcp["changes"],
+                   support_overflow=fcp["support_overflow"] & mask, points=pts_all, depth=depth_all,
                    active=active_all, feature=feature_all, n_points=n_points, edge_overflow=edge_overflow,
                    normal_force=per_slot(fn), tangential_force=per_slot(ft_c), shear=u_new, contact_feature=feature,
                    Fj=jnp.sum(F, 1), Tj=jnp.sum(jnp.cross(rj, F), 1), Ti=-jnp.sum(jnp.cross(ri, F), 1))
@@ -511,6 +504,9 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     if config.crossing_slots < config.max_edges:
         over = jnp.any(per["edge_overflow"])
         status = status | jnp.where(over, Status.CROSSING_EDGE_OVERFLOW.value, 0).astype(jnp.int32)
+    if support_edges:
+        over = jnp.any(per["support_overflow"])
+        status = status | jnp.where(over, Status.SUPPORT_EDGE_OVERFLOW.value, 0).astype(jnp.int32)
     if config.joint_water and config.joint_patch_points < active.shape[1]:
         over = jnp.any(per["joint_count"] > config.joint_patch_points)
         status = status | jnp.where(over, Status.JOINT_PATCH_OVERFLOW.value, 0).astype(jnp.int32)

@@ -91,6 +91,13 @@ class BlockConfig:
         ``max_edges^2`` (144 for boxes, ~900 for 12-vertex rocks). A block with more such edges
         sets ``Status.CROSSING_EDGE_OVERFLOW``, which the driver cures by doubling it. 0, or
         >= ``max_edges``: every edge of each block.
+      support_edges: each FCP round builds its edge candidates (seed types c, d) from at most this
+        many edge directions touching each block's support set, gathered per pair: a face's
+        edges and those leaving its vertices, ~12-16 of a 12-vertex rock's 30 (``make_blocks``
+        sets the most any face of the blocks has, ``ConvexPolyhedron.support_directions``). A
+        support set touching more (near-coplanar faces within round-off) sets
+        ``Status.SUPPORT_EDGE_OVERFLOW``, which the driver cures by doubling it. 0, or >= the
+        blocks' edge directions: every direction (no gathering).
       inside_tolerance: relative (to the block's bounding radius) tolerance of the
         point-in-block test that decides which vertices / crossings are contact points.
       penetration_limit: depth / min(bounding radius) above which BLOCK_PENETRATION is set.
@@ -139,6 +146,7 @@ class BlockConfig:
     pair_segment: int = 64
     law_slots: int = 32
     crossing_edges: int = 8
+    support_edges: int = 0
 
     def __post_init__(self):
         if len(self.motion) != self.n_blocks:
@@ -153,6 +161,8 @@ class BlockConfig:
             raise ValueError(f"BlockConfig.law_slots must be >= 0 (got {self.law_slots})")
         if self.crossing_edges < 0:
             raise ValueError(f"BlockConfig.crossing_edges must be >= 0 (got {self.crossing_edges})")
+        if self.support_edges < 0:
+            raise ValueError(f"BlockConfig.support_edges must be >= 0 (got {self.support_edges})")
         if self.pair_segment < 0:
             raise ValueError(f"BlockConfig.pair_segment must be >= 0 (got {self.pair_segment})")
         if not (self.prescribed_ramp >= 0.0 and math.isfinite(self.prescribed_ramp)):
@@ -494,6 +504,7 @@ def make_blocks(
     pair_segment: int = 64,
     law_slots: int = 32,
     crossing_edges: int = 8,
+    support_edges: Optional[int] = None,
 ):
     """Build ``(BlockConfig, BlockParams, BlockState)`` from convex polyhedra, validating every input.
 
@@ -528,7 +539,8 @@ def make_blocks(
         at ``joint_water_level`` (m, height along -gravity) of ``joint_water_density`` (kg/m^3,
         > 0); see ``blocks.joint_water``.  joint_aperture: m (>= 0), see :class:`BlockConfig`;
         the broad-phase margin is raised to it.  joint_patch_points, pair_segment, law_slots,
-        crossing_edges: see :class:`BlockConfig`.
+        crossing_edges, support_edges: see :class:`BlockConfig`; ``support_edges`` defaults to the
+        most edge directions touching one face of any of the blocks.
 
     Returns:
       ``(config, params, state)``; state arrays in float32 (float64 under ``jax_enable_x64``).
@@ -632,6 +644,10 @@ def make_blocks(
     if int(grid_cell_capacity) < 1:
         raise ValueError("grid_cell_capacity must be >= 1")
 
+    if support_edges is None:
+        support_edges = max(p.support_directions() for p in polys)
+    if int(support_edges) != support_edges or support_edges < 0:
+        raise ValueError(f"support_edges must be a non-negative integer (0: every edge direction), got {support_edges}")
     K = max(max(len(p.halfedges_around_vertex(v)) for v in range(p.n_vertices)) for p in polys)
     V = packed.max_vertices
     stars = [_stars(p, V, K) for p in polys]
@@ -662,6 +678,7 @@ def make_blocks(
         pair_segment=int(pair_segment),
         law_slots=int(law_slots),
         crossing_edges=int(crossing_edges),
+        support_edges=int(support_edges),
     )
 
     f = float_dtype()
