@@ -13,7 +13,7 @@ Pile: N boxes (0.18-0.2 m, 2650 kg/m^3) stacked ~4 high in columns in contact on
 slab, with 2 mm lateral jitter (no initial overlap); ``--shape rock``: the same columns of rocks
 instead, each the convex hull of 12 random points near a sphere (~30 edges, no parallel ones),
 scaled to 0.19 m, each 1 mm above the top of the one below, timed after ``ROCK_WARMUP_S`` = 0.05 s
-of falling into contact and settling (MuJoCo runs the box pile only); k_n = 1e7 N/m, dt = stable_dt.  Timed
+of falling into contact and settling (MuJoCo likewise, its rocks as mesh geoms); k_n = 1e7 N/m, dt = stable_dt.  Timed
 after one warm-up chunk (compile excluded).  "contact_evals" counts narrow-phase pair evaluations
 (the pair buffer entries whose boxes overlap), "contact_points" the active contact points.
 """
@@ -172,23 +172,31 @@ def run_blocks(n, steps, chunk=50, pair_segment=64, edges_as_directions=False, s
                 backend=jax.default_backend(), dtype=str(st.x.dtype))
 
 
-def run_mujoco(n, steps, dt):
+def run_mujoco(n, steps, dt, shape="box"):
+    """The same pile in MuJoCo's CPU simulator (boxes as box geoms; rocks as mesh geoms, which
+    MuJoCo collides as their convex hulls), block-steps/s at the same dt. Rocks first fall into
+    contact for ``ROCK_WARMUP_S``, as in :func:`run_blocks`."""
     try:
         import mujoco
     except ImportError:
-        return dict(bench="mujoco_pile", n_blocks=n, skipped="mujoco not importable")
-    polys, pos = pile(n)
-    geoms = []
+        return dict(bench="mujoco_pile", shape=shape, n_blocks=n, skipped="mujoco not importable")
+    polys, pos = pile(n, shape=shape)
+    geoms, meshes = [], []
     for k in range(n):
-        sx, sy, sz = np.ptp(polys[k + 1].vertices, axis=0)
         x, y, z = pos[k + 1]
-        geoms.append(f'<body pos="{x} {y} {z}"><freejoint/><geom type="box" size="{sx/2} {sy/2} {sz/2}" '
-                     f'density="2650"/></body>')
-    xml = (f'<mujoco><option timestep="{dt}"/><worldbody><geom type="plane" size="50 50 0.1"/>'
-           + "".join(geoms) + "</worldbody></mujoco>")
+        if shape == "rock":
+            v = " ".join(f"{c:.9g}" for c in polys[k + 1].vertices.ravel())
+            meshes.append(f'<mesh name="r{k}" vertex="{v}"/>')
+            geom = f'<geom type="mesh" mesh="r{k}" density="2650"/>'
+        else:
+            sx, sy, sz = np.ptp(polys[k + 1].vertices, axis=0)
+            geom = f'<geom type="box" size="{sx/2} {sy/2} {sz/2}" density="2650"/>'
+        geoms.append(f'<body pos="{x} {y} {z}"><freejoint/>{geom}</body>')
+    xml = (f'<mujoco><option timestep="{dt}"/><asset>{"".join(meshes)}</asset><worldbody>'
+           '<geom type="plane" size="50 50 0.1"/>' + "".join(geoms) + "</worldbody></mujoco>")
     model = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(model)
-    for _ in range(10):
+    for _ in range(int(ROCK_WARMUP_S / dt) if shape == "rock" else 10):
         mujoco.mj_step(model, data)
     tw = time.perf_counter()
     ncon = 0
@@ -196,9 +204,10 @@ def run_mujoco(n, steps, dt):
         mujoco.mj_step(model, data)
         ncon += data.ncon
     wall = time.perf_counter() - tw
-    return dict(bench="mujoco_pile", n_blocks=n, version=mujoco.__version__, dt=dt, steps=steps, wall_s=round(wall, 3),
-                block_steps_per_s=n * steps / wall, mean_contacts=ncon / steps,
-                note="MuJoCo CPU (1 thread, soft constraints, Newton solver, default settings), same pile")
+    return dict(bench="mujoco_pile", shape=shape, n_blocks=n, version=mujoco.__version__, dt=dt, steps=steps,
+                wall_s=round(wall, 3), block_steps_per_s=n * steps / wall, mean_contacts=ncon / steps,
+                note="MuJoCo CPU (1 thread, soft constraints, Newton solver, default settings), same pile"
+                     + (" (rocks: mesh geoms, collided as convex hulls)" if shape == "rock" else ""))
 
 
 def fcp_accuracy(n_cases=60, iterations=(0, 1, 2, 4, 8)):
@@ -311,9 +320,9 @@ def main():
     for n in a.sizes:
         r = run_blocks(n, steps_for(n), shape=a.shape)
         out(r)
-        if a.no_mujoco or a.shape != "box":
+        if a.no_mujoco:
             continue
-        m = run_mujoco(n, a.steps, r["dt"])
+        m = run_mujoco(n, a.steps, r["dt"], a.shape)
         if "block_steps_per_s" in m:
             m["ratio_rockjax_over_mujoco"] = r["block_steps_per_s"] / m["block_steps_per_s"]
         out(m)

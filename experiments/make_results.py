@@ -346,7 +346,7 @@ def sec_peers(doc: Doc):
 
 
 def sec_blocks(doc: Doc):
-    doc.h("Blocks vs MuJoCo (box piles)")
+    doc.h("Blocks vs MuJoCo (box and rock piles)")
     recs = doc.records("bench_blocks.jsonl", "python experiments/bench_blocks.py > experiments/results/bench_blocks.jsonl")
     if recs is None:
         return
@@ -365,6 +365,20 @@ def sec_blocks(doc: Doc):
                      m.get("block_steps_per_s"), m.get("ratio_rockjax_over_mujoco") or m.get("skipped")])
     doc.p(table(["blocks", "broad phase", "steps", "dt [s]", "block-steps/s", "contact evals/s", "contact points",
                  "status", "MuJoCo block-steps/s", "rockjax / MuJoCo"], rows))
+    rock = doc.records("bench_blocks_rock.jsonl", "python experiments/bench_blocks.py --shape rock --sizes 10 100 "
+                       "--no-fcp --out experiments/results/bench_blocks_rock.jsonl")
+    if rock:
+        ours = {r["n_blocks"]: r for r in rock if r.get("bench") == "blocks_pile"}
+        mj = {r["n_blocks"]: r for r in rock if r.get("bench") == "mujoco_pile"}
+        doc.p("Piles of random rocks (convex hulls of 12 points, ~30 edges, `--shape rock`), timed after 0.05 s of "
+              "falling into contact; MuJoCo collides its mesh geoms as their convex hulls.")
+        doc.p(table(["rocks", "steps", "dt [s]", "block-steps/s", "contact points", "status", "MuJoCo block-steps/s",
+                     "MuJoCo contacts", "rockjax / MuJoCo", "date"],
+                    [[n, ours[n].get("steps"), ours[n].get("dt"), ours[n].get("block_steps_per_s"),
+                      ours[n].get("mean_contact_points"), ours[n].get("status"),
+                      mj.get(n, {}).get("block_steps_per_s"), mj.get(n, {}).get("mean_contacts"),
+                      mj.get(n, {}).get("ratio_rockjax_over_mujoco") or mj.get(n, {}).get("skipped"),
+                      ours[n].get("date")] for n in sorted(ours)]))
     def ab_records(name, cmd, bench):
         return [r for r in doc.records(name, cmd) or [] if r.get("bench") == bench]
 
