@@ -371,7 +371,8 @@ def sec_blocks(doc: Doc):
         ours = {r["n_blocks"]: r for r in rock if r.get("bench") == "blocks_pile"}
         mj = {r["n_blocks"]: r for r in rock if r.get("bench") == "mujoco_pile"}
         doc.p("Piles of random rocks (convex hulls of 12 points, ~30 edges, `--shape rock`), timed after 0.05 s of "
-              "falling into contact; MuJoCo collides its mesh geoms as their convex hulls.")
+              "falling into contact (still bouncing then: few contact points per rock, in both codes); MuJoCo collides "
+              "its mesh geoms as their convex hulls.")
         doc.p(table(["rocks", "steps", "dt [s]", "block-steps/s", "contact points", "status", "MuJoCo block-steps/s",
                      "MuJoCo contacts", "rockjax / MuJoCo", "date"],
                     [[n, ours[n].get("steps"), ours[n].get("dt"), ours[n].get("block_steps_per_s"),
