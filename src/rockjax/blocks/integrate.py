@@ -64,8 +64,8 @@ def advance_blocks(state: BlockState, params: BlockParams, config: BlockConfig, 
     Returns:
       ``(state, status int32)``: status may hold CONTACT_OVERFLOW, BLOCK_CELL_OVERFLOW,
       CONTACT_POINT_OVERFLOW, CROSSING_EDGE_OVERFLOW, SUPPORT_EDGE_OVERFLOW, JOINT_PATCH_OVERFLOW
-      (buffers the driver grows), BLOCK_UNSTABLE (dt above the Eq 8 limit for these params), BLOCK_PENETRATION and
-      NON_FINITE.
+      (buffers the driver grows), BLOCK_UNSTABLE (dt above the Eq 8 limit for these params),
+      BLOCK_PENETRATION and NON_FINITE.
     """
     force, torque, hist, status = contact_forces(state, params, config, dt=dt, gravity=gravity)
     state = with_history(state, hist)

@@ -93,7 +93,7 @@ class BlockConfig:
         >= ``max_edges``: every edge of each block.
       support_edges: each FCP round builds its edge candidates (seed types c, d) from at most this
         many edge directions touching each block's support set, gathered per pair: a face's
-        edges and those leaving its vertices, ~12-16 of a 12-vertex rock's 30 (``make_blocks``
+        edges and those leaving its vertices, 12-19 of a 12-vertex rock's ~30 (14 on average) (``make_blocks``
         sets the most any face of the blocks has, ``ConvexPolyhedron.support_directions``). A
         support set touching more (near-coplanar faces within round-off) sets
         ``Status.SUPPORT_EDGE_OVERFLOW``, which the driver cures by doubling it. 0, or >= the
