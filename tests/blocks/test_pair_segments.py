@@ -242,7 +242,7 @@ def test_support_edges_overflow_flagged_and_grown(x64):
     touching a face, ``ConvexPolyhedron.support_directions``) gives the plane, points and loads of
     rounds over every direction (0); 2 is fewer than any support set touches, which sets
     SUPPORT_EDGE_OVERFLOW (a growable bit), and the driver's ``_grow`` doubles it (at most
-    ``max_edges``)."""
+    ``max_edges``). The loads' gradients with respect to the poses agree too."""
     from rockjax.blocks import quat_from_axis_angle
     from rockjax.types import Status
 
@@ -266,6 +266,19 @@ def test_support_edges_overflow_flagged_and_grown(x64):
     assert_same_loads(out[None], out[0])
     assert out[2][2] & Status.SUPPORT_EDGE_OVERFLOW
     assert Status.SUPPORT_EDGE_OVERFLOW & Status.growable()
+    # the gathered edges carry the same derivatives (the normal's, through the winning candidate)
+    grads = {}
+    for k in (0, None):
+        cfg_k, par, st = make_blocks(shapes, support_edges=k, **kw)
+
+        def load(x, q, cfg_k=cfg_k, par=par, st=st):
+            F, T = rb.contact_forces(st.replace(x=x, q=q), par, cfg_k, dt=1e-4)[:2]
+            return F[1] @ jnp.array([0.3, -0.2, 1.0]) + T[1] @ jnp.array([1.0, 0.5, -0.4])
+
+        grads[k] = jax.jit(jax.grad(load, argnums=(0, 1)))(st.x, st.q)
+    assert np.any(np.asarray(grads[0][1]) != 0)
+    for a, b in zip(grads[None], grads[0]):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-10, atol=1e-10 * float(np.abs(b).max()))
     cfg2, _, _ = make_blocks(shapes, support_edges=2, **kw)
     assert grown_by_driver(cfg2, Status.SUPPORT_EDGE_OVERFLOW).support_edges == 4
     assert grown_by_driver(dataclasses.replace(cfg2, support_edges=24),
