@@ -61,7 +61,7 @@ import jax.numpy as jnp
 
 from ..types import Status, _pytree_dataclass
 from .broadphase import candidate_pairs, pairs_are_static
-from .fcp import _first_k, fcp_pair, sat_start
+from .fcp import _first_k, fcp_pair, sat_start, vertex_directions
 from .joint_water import joint_water_load
 from .model import BlockConfig, BlockParams, BlockState, Motion, block_mass, world_planes, world_vertices
 from .rotation import project, safe_norm
@@ -389,6 +389,9 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     n_dir = sh.direction_edge.shape[1]
     iterations = 0 if sat_start(n_dir) and not config.joint_water else config.fcp_iterations
     support_edges = config.support_edges if 0 < config.support_edges < n_dir else 0
+    # which edge directions touch each vertex: shape only, built once per block (not per pair and round)
+    vdir = jax.vmap(lambda e, em, g: vertex_directions(e, em, sh.vertex_mask.shape[1], g, n_dir))(
+        sh.edges, sh.edge_mask, sh.edge_direction)  # [B, V, nD]
 
     def pair_forces(i, j, mask, plane, plane_valid, shear, feature_old):
         """FCP, contact points and the contact law of the pairs (i, j) [S] (a segment of the
@@ -397,8 +400,8 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
             Xw[i], sh.vertex_mask[i], Nw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i],
             Xw[j], sh.vertex_mask[j], Nw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j],
             state.x[i], state.x[j], plane, plane_valid,
-            (sh.edge_direction[i], sh.direction_edge[i], sh.direction_mask[i]),
-            (sh.edge_direction[j], sh.direction_edge[j], sh.direction_mask[j]),
+            (sh.edge_direction[i], sh.direction_edge[i], sh.direction_mask[i], vdir[i]),
+            (sh.edge_direction[j], sh.direction_edge[j], sh.direction_mask[j], vdir[j]),
         )
         n = fcp["normal"]
         geometry = (

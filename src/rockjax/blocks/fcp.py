@@ -69,15 +69,38 @@ def _best(cands, valid, Xi, mi, Xj, mj):
     return cands[k] * sign[k], g[k]
 
 
-def _by_direction(e, m, dirs):
-    """Edge vectors e [nE,3] with mask m [nE] -> one per direction group ``dirs = (edge_direction
-    [nE], direction_edge [nD], direction_mask [nD])``: [nD,3] (the representative edge's vector) and
-    [nD] (any member of the group in m).  ``dirs`` None: unchanged (every edge its own direction)."""
+def vertex_directions(edges, edge_mask, n_vertices: int, edge_direction=None, n_directions: int | None = None):
+    """Which edge directions touch each vertex: [V, nD] bool, True where vertex v is an end of an
+    edge in ``edge_mask`` [nE] whose direction group (``edge_direction`` [nE]) is d.  Without
+    ``edge_direction`` every edge is its own direction ([V, nE]).  It depends on the shape only, so
+    it is built once per block, outside the FCP rounds (one small matrix product, no scatter)."""
+    onehot_v = (edges[:, :, None] == jnp.arange(n_vertices, dtype=edges.dtype)).any(1)  # [nE, V]
+    inc = (onehot_v & edge_mask[:, None]).astype(jnp.float32)
+    if edge_direction is None:
+        return inc.T > 0
+    member = (edge_direction[:, None] == jnp.arange(n_directions, dtype=edge_direction.dtype)).astype(jnp.float32)
+    return (inc.T @ member) > 0  # [V, nD]
+
+
+def _direction_vectors(X, e, dirs):
+    """[nD,3] m: each edge direction's vector (its representative edge's, from the vertices X [V,3]);
+    ``dirs`` None: every edge's [nE,3]."""
     if dirs is None:
-        return e, m
-    group, rep, dm = dirs
-    member = group[None, :] == jnp.arange(rep.shape[0], dtype=group.dtype)[:, None]  # [nD, nE]
-    return e[rep], dm & jnp.any(member & m[None, :], -1)
+        return X[e[:, 1]] - X[e[:, 0]]
+    rep = dirs[1]
+    return X[e[rep, 1]] - X[e[rep, 0]]
+
+
+def _directions(X, e, em, dirs):
+    """A block's edge directions for the FCP rounds: ``(vectors [nD,3] m, mask [nD],
+    vertex_direction [V,nD])``.  ``dirs`` is ``(edge_direction [nE], direction_edge [nD],
+    direction_mask [nD])``, optionally followed by the precomputed :func:`vertex_directions` table,
+    or None (every edge its own direction)."""
+    if dirs is None:
+        return _direction_vectors(X, e, None), em, vertex_directions(e, em, X.shape[0])
+    group, rep, dm = dirs[:3]
+    vd = dirs[3] if len(dirs) > 3 else vertex_directions(e, em, X.shape[0], group, rep.shape[0])
+    return _direction_vectors(X, e, dirs), dm, vd
 
 
 def _first_k(cand, k: int):
@@ -107,8 +130,7 @@ def _crosses(ea, ma, eb, mb):
     return cr, (ma[:, None] & mb[None, :]).reshape(-1) & (jnp.sum(cr * cr, -1) > 1e-10 * ref)
 
 
-def _local_candidates(n, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, scale, dirs_i=None, dirs_j=None,
-                      support_edges: int = 0):
+def _local_candidates(n, Xi, mi, Ni, fmi, di, Xj, mj, Nj, fmj, dj, scale, support_edges: int = 0):
     """Seed candidate types a-d at the support features of the plane n, plus n itself (last).
 
     The "closest vertices" of the paper are generalised to the support SETS (all vertices
@@ -117,8 +139,9 @@ def _local_candidates(n, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, sca
     of random overlaps stall).  Candidates: every face normal of both blocks (cheap), the
     crosses of the edges touching the support set of i with those touching the support set of j
     (type c), the bisector of AB (type a) and AB minus its part along each such edge (type d).
-    Parallel edges give the same candidates, so with ``dirs_i`` / ``dirs_j`` (see ``_by_direction``)
-    types c and d are built once per edge direction: a box pair scores 29 candidates instead of 182.
+    Parallel edges give the same candidates, so types c and d are built once per edge direction
+    (``di`` / ``dj`` from :func:`_directions`, built once per pair outside the rounds): a box pair
+    scores 29 candidates instead of 182.
     With ``support_edges`` = k (0: all), the edges (directions) touching each support set are first
     gathered into k rows (in order, so the candidates and their ties are those of the full set):
     a 12-vertex rock pair scores ~k^2 + 2k + 42 candidates instead of 1000.
@@ -137,12 +160,8 @@ def _local_candidates(n, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, sca
     A = jnp.argmax(jnp.where(mi, pi, -_BIG))
     B = jnp.argmin(jnp.where(mj, pj, _BIG))
     d = Xj[B] - Xi[A]
-    ea = Xi[ei[:, 1]] - Xi[ei[:, 0]]  # [nE,3]
-    eb = Xj[ej[:, 1]] - Xj[ej[:, 0]]
-    ma = emi & (set_i[ei[:, 0]] | set_i[ei[:, 1]])
-    mb = emj & (set_j[ej[:, 0]] | set_j[ej[:, 1]])
-    ea, ma = _by_direction(ea, ma, dirs_i)
-    eb, mb = _by_direction(eb, mb, dirs_j)
+    ea, ma = di[0], di[1] & jnp.any(set_i[:, None] & di[2], 0)  # the directions touching the support sets
+    eb, mb = dj[0], dj[1] & jnp.any(set_j[:, None] & dj[2], 0)
     ea, ma, over_a = _support_edges(ea, ma, support_edges)
     eb, mb, over_b = _support_edges(eb, mb, support_edges)
     cr, cr_ok = _crosses(ea, ma, eb, mb)  # type c; parallel edges invalid
@@ -179,8 +198,9 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
       ei, ej: [nE,2] edges (vertex pairs); emi, emj: [nE] edge masks.
       ci, cj: [3] centroids (m).  n_prev: [3] last plane normal (i -> j); prev_valid: [] bool.
       dirs_i, dirs_j: the blocks' edge directions ``(edge_direction [nE], direction_edge [nD],
-        direction_mask [nD])`` (``BlockShape``), or None to treat every edge as its own direction
-        (the same plane, found with more candidates). With directions and ``sat_start`` of their
+        direction_mask [nD])`` (``BlockShape``), optionally followed by their
+        ``vertex_directions`` table [V,nD] (built here, once per pair, when absent), or None to
+        treat every edge as its own direction (the same plane, found with more candidates). With directions and ``sat_start`` of their
         count, the start also holds every cross product of a direction of i and one of j: with the
         face normals, every separating axis, so for an overlapping pair the start is already the
         minimum-penetration plane and the iterations keep it (a separated pair's gap may still
@@ -200,10 +220,9 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
     cdir = sg(cj - ci)
     init = [sNi, -sNj, cdir[None], sg(n_prev)[None]]
     init_ok = [fmi, fmj, jnp.ones(1, bool), jnp.reshape(prev_valid, (1,))]
+    di, dj = _directions(sXi, ei, emi, dirs_i), _directions(sXj, ej, emj, dirs_j)  # the rounds' (no gradient)
     if dirs_i is not None and dirs_j is not None and sat_start(max(dirs_i[1].shape[0], dirs_j[1].shape[0])):
-        da = sXi[ei[dirs_i[1], 1]] - sXi[ei[dirs_i[1], 0]]  # [nD, 3]
-        db = sXj[ej[dirs_j[1], 1]] - sXj[ej[dirs_j[1], 0]]
-        cr, cr_ok = _crosses(da, dirs_i[2], db, dirs_j[2])
+        cr, cr_ok = _crosses(di[0], di[1], dj[0], dj[1])
         init.append(cr)
         init_ok.append(cr_ok)
     init, init_ok = _normalise(jnp.concatenate(init, 0), jnp.concatenate(init_ok, 0), 1e-30)
@@ -211,16 +230,16 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
 
     def body(_, carry):
         n, g, changes, over = carry
-        c, ok, o = _local_candidates(n, sXi, mi, sNi, fmi, ei, emi, sXj, mj, sNj, fmj, ej, emj, sscale, dirs_i,
-                                     dirs_j, support_edges)
+        c, ok, o = _local_candidates(n, sXi, mi, sNi, fmi, di, sXj, mj, sNj, fmj, dj, sscale, support_edges)
         n1, g1 = _best(c, ok, sXi, mi, sXj, mj)
         changes = changes + (g1 > g + 1e-7 * sscale).astype(jnp.int32)
         return n1, g1, changes, over | o
 
     n_s, _, changes, over = lax.fori_loop(0, iterations, body, (n0, g0, jnp.int32(0), jnp.zeros((), bool)))
     # differentiable last round on the live geometry (ties pick a geometric candidate, not n_s)
-    c, ok, o = _local_candidates(n_s, Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, sscale, dirs_i, dirs_j,
-                                 support_edges)
+    live_i = (_direction_vectors(Xi, ei, dirs_i), *di[1:])
+    live_j = (_direction_vectors(Xj, ej, dirs_j), *dj[1:])
+    c, ok, o = _local_candidates(n_s, Xi, mi, Ni, fmi, live_i, Xj, mj, Nj, fmj, live_j, sscale, support_edges)
     n, _ = _best(c, ok, Xi, mi, Xj, mj)
     pi = project(Xi, n)
     pj = project(Xj, n)
