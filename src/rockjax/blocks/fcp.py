@@ -35,12 +35,22 @@ __all__ = ["fcp_pair", "gap_along", "sat_start", "SAT_START_LIMIT"]
 _BIG = 1e30
 
 
+# Candidate normals are held component-major, [3, C]: the narrow phase's arrays then have the
+# candidates as their minor axis, which XLA:CPU vectorises (as [C, 3] every operation ran over a
+# minor axis of 3: building a rock pair's ~440 candidates cost twice their scoring).
+
+
 def _normalise(c, valid, rel_eps):
-    """Unit vectors of the rows of ``c`` [C,3]; rows shorter than ``rel_eps`` (squared) are invalid."""
-    s = jnp.sum(c * c, -1)
+    """Unit vectors of the columns of ``c`` [3,C]; columns shorter than ``rel_eps`` (squared) are invalid."""
+    s = c[0] * c[0] + c[1] * c[1] + c[2] * c[2]
     ok = valid & (s > rel_eps)
     inv = lax.rsqrt(jnp.where(ok, s, 1.0))
-    return c * inv[:, None], ok
+    return c * inv[None, :], ok
+
+
+def _project_t(X, Nt):
+    """[V,3] points X, [3,C] directions Nt -> [V,C] (``X @ Nt`` as three multiply-adds)."""
+    return X[:, 0, None] * Nt[0] + X[:, 1, None] * Nt[1] + X[:, 2, None] * Nt[2]
 
 
 def gap_along(normals, Xi, mi, Xj, mj):
@@ -51,8 +61,13 @@ def gap_along(normals, Xi, mi, Xj, mj):
     Returns:
       ``(g_plus, g_minus)`` [C] m: ``min_j n.x - max_i n.x`` for n and for -n.
     """
-    pi = project(Xi, normals)  # [V, C]
-    pj = project(Xj, normals)
+    return _gaps(normals.T, Xi, mi, Xj, mj)
+
+
+def _gaps(normals_t, Xi, mi, Xj, mj):
+    """:func:`gap_along` of component-major normals [3,C]."""
+    pi = _project_t(Xi, normals_t)  # [V, C]
+    pj = _project_t(Xj, normals_t)
     max_i = jnp.max(jnp.where(mi[:, None], pi, -_BIG), 0)
     min_i = jnp.min(jnp.where(mi[:, None], pi, _BIG), 0)
     max_j = jnp.max(jnp.where(mj[:, None], pj, -_BIG), 0)
@@ -61,12 +76,13 @@ def gap_along(normals, Xi, mi, Xj, mj):
 
 
 def _best(cands, valid, Xi, mi, Xj, mj):
-    gp, gm = gap_along(cands, Xi, mi, Xj, mj)
+    """The candidate [3,C] (in its better orientation) with the largest gap: ``(normal [3], gap [])``."""
+    gp, gm = _gaps(cands, Xi, mi, Xj, mj)
     g = jnp.maximum(gp, gm)
     sign = jnp.where(gp >= gm, 1.0, -1.0).astype(cands.dtype)
     g = jnp.where(valid, g, -_BIG)
     k = jnp.argmax(g)
-    return cands[k] * sign[k], g[k]
+    return cands[:, k] * sign[k], g[k]
 
 
 def vertex_directions(edges, edge_mask, n_vertices: int, edge_direction=None, n_directions: int | None = None):
@@ -83,16 +99,14 @@ def vertex_directions(edges, edge_mask, n_vertices: int, edge_direction=None, n_
 
 
 def _direction_vectors(X, e, dirs):
-    """[nD,3] m: each edge direction's vector (its representative edge's, from the vertices X [V,3]);
-    ``dirs`` None: every edge's [nE,3]."""
-    if dirs is None:
-        return X[e[:, 1]] - X[e[:, 0]]
-    rep = dirs[1]
-    return X[e[rep, 1]] - X[e[rep, 0]]
+    """[3,nD] m (component-major): each edge direction's vector (its representative edge's, from
+    the vertices X [V,3]); ``dirs`` None: every edge's [3,nE]."""
+    rep = jnp.arange(e.shape[0]) if dirs is None else dirs[1]
+    return (X[e[rep, 1]] - X[e[rep, 0]]).T
 
 
 def _directions(X, e, em, dirs):
-    """A block's edge directions for the FCP rounds: ``(vectors [nD,3] m, mask [nD],
+    """A block's edge directions for the FCP rounds: ``(vectors [3,nD] m, mask [nD],
     vertex_direction [V,nD])``.  ``dirs`` is ``(edge_direction [nE], direction_edge [nD],
     direction_mask [nD])``, optionally followed by the precomputed :func:`vertex_directions` table,
     or None (every edge its own direction)."""
@@ -108,29 +122,34 @@ def _first_k(cand, k: int):
     count) and whether there were more than ``k``: ``(idx [k] int32, overflow [])``."""
     n = cand.shape[0]
     rank = jnp.cumsum(cand.astype(jnp.int32)) - 1
-    hit = cand[None, :] & (rank[None, :] == jnp.arange(k, dtype=jnp.int32)[:, None])  # [k, n]
-    idx = jnp.where(jnp.any(hit, -1), jnp.argmax(hit, -1).astype(jnp.int32), n)
-    return idx, rank[-1] >= k
+    hit = cand[None, :] & (rank[None, :] == jnp.arange(k, dtype=jnp.int32)[:, None])  # [k, n], one-hot rows
+    # the True column of each row, as a sum (an argmax is a slow variadic reduction on XLA:CPU)
+    idx = jnp.sum(jnp.where(hit, jnp.arange(n, dtype=jnp.int32), 0), -1)
+    return jnp.where(jnp.arange(k) <= rank[-1], idx, n).astype(jnp.int32), rank[-1] >= k
 
 
 def _support_edges(e, m, k: int):
-    """The first ``k`` rows of the edge vectors ``e`` [n,3] in the mask ``m`` [n] (in order), their
-    mask, and whether ``m`` held more: ``(e [k,3], m [k], overflow [])``. ``k`` 0 or >= n: unchanged."""
-    if k <= 0 or k >= e.shape[0]:
+    """The first ``k`` columns of the edge vectors ``e`` [3,n] in the mask ``m`` [n] (in order),
+    their mask, and whether ``m`` held more: ``(e [3,k], m [k], overflow [])``. ``k`` 0 or >= n:
+    unchanged."""
+    n = e.shape[1]
+    if k <= 0 or k >= n:
         return e, m, jnp.zeros((), bool)
     idx, over = _first_k(m, k)
-    return jnp.take(e, idx, axis=0, mode="fill", fill_value=0), idx < e.shape[0], over
+    return jnp.take(e, idx, axis=1, mode="fill", fill_value=0), idx < n, over
 
 
 def _crosses(ea, ma, eb, mb):
-    """Every cross product of an edge vector of ``ea`` [Ka,3] and one of ``eb`` [Kb,3], flattened
-    [Ka Kb, 3], and which are valid: both edges in their masks and not parallel."""
-    cr = jnp.cross(ea[:, None, :], eb[None, :, :]).reshape(-1, 3)
-    ref = (jnp.sum(ea * ea, -1)[:, None] * jnp.sum(eb * eb, -1)[None, :]).reshape(-1)
-    return cr, (ma[:, None] & mb[None, :]).reshape(-1) & (jnp.sum(cr * cr, -1) > 1e-10 * ref)
+    """Every cross product of an edge vector of ``ea`` [3,Ka] and one of ``eb`` [3,Kb], flattened
+    [3, Ka Kb] (a-major), and which are valid: both edges in their masks and not parallel."""
+    (a0, a1, a2), (b0, b1, b2) = (c[:, None] for c in ea), (c[None, :] for c in eb)
+    cr = jnp.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0]).reshape(3, -1)
+    ref = ((a0 * a0 + a1 * a1 + a2 * a2) * (b0 * b0 + b1 * b1 + b2 * b2)).reshape(-1)
+    s = cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]
+    return cr, (ma[:, None] & mb[None, :]).reshape(-1) & (s > 1e-10 * ref)
 
 
-def _local_candidates(n, Xi, mi, Ni, fmi, di, Xj, mj, Nj, fmj, dj, scale, support_edges: int = 0):
+def _local_candidates(n, Xi, mi, Nti, fmi, di, Xj, mj, Ntj, fmj, dj, scale, support_edges: int = 0):
     """Seed candidate types a-d at the support features of the plane n, plus n itself (last).
 
     The "closest vertices" of the paper are generalised to the support SETS (all vertices
@@ -146,8 +165,9 @@ def _local_candidates(n, Xi, mi, Ni, fmi, di, Xj, mj, Nj, fmj, dj, scale, suppor
     gathered into k rows (in order, so the candidates and their ties are those of the full set):
     a 12-vertex rock pair scores ~k^2 + 2k + 42 candidates instead of 1000.
 
+    Args: as :func:`fcp_pair`, but the face normals ``Nti``, ``Ntj`` [3,F] component-major.
     Returns:
-      ``(candidates [C,3] unit, valid [C], overflow [])``: overflow when a support set touches
+      ``(candidates [3,C] unit, valid [C], overflow [])``: overflow when a support set touches
       more than ``support_edges`` directions (some candidates were not scored).
     """
     pi = project(Xi, n)
@@ -165,15 +185,15 @@ def _local_candidates(n, Xi, mi, Ni, fmi, di, Xj, mj, Nj, fmj, dj, scale, suppor
     ea, ma, over_a = _support_edges(ea, ma, support_edges)
     eb, mb, over_b = _support_edges(eb, mb, support_edges)
     cr, cr_ok = _crosses(ea, ma, eb, mb)  # type c; parallel edges invalid
-    e_all = jnp.concatenate([ea, eb], 0)
-    l_all = jnp.sum(e_all * e_all, -1)
+    e_all = jnp.concatenate([ea, eb], 1)  # [3, 2k]
+    l_all = e_all[0] * e_all[0] + e_all[1] * e_all[1] + e_all[2] * e_all[2]
     m_all = jnp.concatenate([ma, mb], 0)
-    proj = jnp.sum(e_all * d, -1) / jnp.where(m_all, l_all, 1.0)
-    perp = d - proj[:, None] * e_all  # type d
+    proj = (e_all[0] * d[0] + e_all[1] * d[1] + e_all[2] * d[2]) / jnp.where(m_all, l_all, 1.0)
+    perp = d[:, None] - proj[None, :] * e_all  # type d
     eps_abs = (1e-6 * scale) ** 2
-    perp_ok = m_all & (jnp.sum(perp * perp, -1) > eps_abs)
+    perp_ok = m_all & (perp[0] * perp[0] + perp[1] * perp[1] + perp[2] * perp[2] > eps_abs)
     d_ok = jnp.sum(d * d) > eps_abs
-    cands = jnp.concatenate([Ni, -Nj, cr, perp, d[None], n[None]], 0)
+    cands = jnp.concatenate([Nti, -Ntj, cr, perp, d[:, None], n[:, None]], 1)
     valid = jnp.concatenate([fmi, fmj, cr_ok, perp_ok, d_ok[None], jnp.ones(1, bool)], 0)
     return (*_normalise(cands, valid, 0.0), over_a | over_b)
 
@@ -218,19 +238,20 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
     sg = lax.stop_gradient
     sXi, sXj, sNi, sNj, sscale = sg(Xi), sg(Xj), sg(Ni), sg(Nj), sg(scale)
     cdir = sg(cj - ci)
-    init = [sNi, -sNj, cdir[None], sg(n_prev)[None]]
+    sNti, sNtj = sNi.T, sNj.T  # component-major (see _normalise)
+    init = [sNti, -sNtj, cdir[:, None], sg(n_prev)[:, None]]
     init_ok = [fmi, fmj, jnp.ones(1, bool), jnp.reshape(prev_valid, (1,))]
     di, dj = _directions(sXi, ei, emi, dirs_i), _directions(sXj, ej, emj, dirs_j)  # the rounds' (no gradient)
     if dirs_i is not None and dirs_j is not None and sat_start(max(dirs_i[1].shape[0], dirs_j[1].shape[0])):
         cr, cr_ok = _crosses(di[0], di[1], dj[0], dj[1])
         init.append(cr)
         init_ok.append(cr_ok)
-    init, init_ok = _normalise(jnp.concatenate(init, 0), jnp.concatenate(init_ok, 0), 1e-30)
+    init, init_ok = _normalise(jnp.concatenate(init, 1), jnp.concatenate(init_ok, 0), 1e-30)
     n0, g0 = _best(init, init_ok, sXi, mi, sXj, mj)
 
     def body(_, carry):
         n, g, changes, over = carry
-        c, ok, o = _local_candidates(n, sXi, mi, sNi, fmi, di, sXj, mj, sNj, fmj, dj, sscale, support_edges)
+        c, ok, o = _local_candidates(n, sXi, mi, sNti, fmi, di, sXj, mj, sNtj, fmj, dj, sscale, support_edges)
         n1, g1 = _best(c, ok, sXi, mi, sXj, mj)
         changes = changes + (g1 > g + 1e-7 * sscale).astype(jnp.int32)
         return n1, g1, changes, over | o
@@ -239,7 +260,7 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
     # differentiable last round on the live geometry (ties pick a geometric candidate, not n_s)
     live_i = (_direction_vectors(Xi, ei, dirs_i), *di[1:])
     live_j = (_direction_vectors(Xj, ej, dirs_j), *dj[1:])
-    c, ok, o = _local_candidates(n_s, Xi, mi, Ni, fmi, live_i, Xj, mj, Nj, fmj, live_j, sscale, support_edges)
+    c, ok, o = _local_candidates(n_s, Xi, mi, Ni.T, fmi, live_i, Xj, mj, Nj.T, fmj, live_j, sscale, support_edges)
     n, _ = _best(c, ok, Xi, mi, Xj, mj)
     pi = project(Xi, n)
     pj = project(Xj, n)
