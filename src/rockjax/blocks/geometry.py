@@ -47,6 +47,7 @@ Conventions
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Sequence
 
 import numpy as np
@@ -320,8 +321,13 @@ class ConvexPolyhedron:
 
         Returns:
           ``(group [nE] int32, representative [nD] int32)``: the direction index of each edge, and
-          for each direction its first edge (an index into ``edges``).
+          for each direction its first edge (an index into ``edges``); read-only, computed once
+          per polyhedron (``pack`` and :meth:`support_directions` both ask).
         """
+        return self._edge_direction_groups
+
+    @functools.cached_property
+    def _edge_direction_groups(self) -> tuple[np.ndarray, np.ndarray]:
         d = self.vertices[self.edges[:, 1]] - self.vertices[self.edges[:, 0]]
         d = d / np.linalg.norm(d, axis=1, keepdims=True)
         parallel = np.linalg.norm(np.cross(d[:, None, :], d[None, :, :]), axis=-1) <= 1e-9  # [nE, nE]
@@ -331,7 +337,10 @@ class ConvexPolyhedron:
             if group[k] < 0:  # the first edge of a new direction: it and the later edges parallel to it
                 group[parallel[k] & (group < 0)] = len(reps)
                 reps.append(k)
-        return group, np.asarray(reps, dtype=_INT)
+        reps = np.asarray(reps, dtype=_INT)
+        group.setflags(write=False)
+        reps.setflags(write=False)
+        return group, reps
 
     def support_directions(self) -> int:
         """The most edge directions (:meth:`edge_directions`) touching one support set.
