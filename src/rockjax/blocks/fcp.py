@@ -162,7 +162,7 @@ def _local_candidates(n, Xi, mi, Nti, fmi, di, Xj, mj, Ntj, fmj, dj, scale, supp
     (``di`` / ``dj`` from :func:`_directions`, built once per pair outside the rounds): a box pair
     scores 29 candidates instead of 182.
     With ``support_edges`` = k (0: all), the edges (directions) touching each support set are first
-    gathered into k rows (in order, so the candidates and their ties are those of the full set):
+    gathered into k columns (in order, so the candidates and their ties are those of the full set):
     a 12-vertex rock pair scores ~k^2 + 2k + 42 candidates instead of 1000.
 
     Args: as :func:`fcp_pair`, but the face normals ``Nti``, ``Ntj`` [3,F] component-major.
@@ -220,11 +220,12 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
       dirs_i, dirs_j: the blocks' edge directions ``(edge_direction [nE], direction_edge [nD],
         direction_mask [nD])`` (``BlockShape``), optionally followed by their
         ``vertex_directions`` table [V,nD] (built here, once per pair, when absent), or None to
-        treat every edge as its own direction (the same plane, found with more candidates). With directions and ``sat_start`` of their
-        count, the start also holds every cross product of a direction of i and one of j: with the
-        face normals, every separating axis, so for an overlapping pair the start is already the
-        minimum-penetration plane and the iterations keep it (a separated pair's gap may still
-        grow with them: the largest gap is not always along a separating axis).
+        treat every edge as its own direction (the same plane, found with more candidates). With
+        directions and ``sat_start`` of their count, the start also holds every cross product of
+        a direction of i and one of j: with the face normals, every separating axis, so for an
+        overlapping pair the start is already the minimum-penetration plane and the iterations
+        keep it (a separated pair's gap may still grow with them: the largest gap is not always
+        along a separating axis).
       iterations: fixed FCP iteration count (static).
       support_edges: the candidates of a round are built from at most this many edge directions
         touching each support set (``BlockConfig.support_edges``; 0: every direction).
