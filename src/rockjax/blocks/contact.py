@@ -323,6 +323,37 @@ def _segmented(fn, live, args, seg: int, fill=None):
     return jax.tree_util.tree_map(lambda o: o.reshape((n_seg * seg,) + o.shape[2:])[:P], out)
 
 
+def separated_pairs(Xw, vertex_mask, shape, pairs, plane, plane_valid, *, tol_rel: float, slack: float = 0.0):
+    """Which pairs are certainly contact-free: their stored common plane still separates them by
+    more than the contact tests' tolerances can reach across.
+
+    A point counts as inside block k when it is within ``t = tol_rel r_k (+ slack)`` of every
+    face plane of k (``pair_contacts``). That grown block lies within k scaled about its
+    centroid by ``1 + t / d_k`` (``d_k`` the centroid's distance to its nearest face plane), so
+    its support along any direction exceeds k's by at most ``t r_k / d_k``. Along a plane with
+    gap ``g`` greater than the two margins' sum, no vertex or edge crossing of one block lies
+    within the grown other: no contact point, and the pair's forces are zero.
+
+    Args:
+      Xw: [B,V,3] m world vertices; vertex_mask [B,V]; shape: ``BlockShape`` (radius, face
+        offsets about the centroid); pairs [P,2]; plane [P,3] the stored normals; plane_valid [P].
+      tol_rel: ``BlockConfig.inside_tolerance``; slack: m, the joint-water patch's growth.
+    Returns:
+      ``(separated [P] bool, gap [P] m)``: the gap along the stored plane (a lower bound of the
+      common plane's) and whether it exceeds the margins (only where ``plane_valid``).
+    """
+    r = shape.radius
+    d = jnp.min(jnp.where(shape.face_mask, shape.face_offset, jnp.inf), 1)  # [B] centroid to nearest face
+    margin = (tol_rel * r + slack) * r / jnp.maximum(d, 1e-12 * r)  # [B] m
+    i, j = pairs[:, 0], pairs[:, 1]
+    n = jax.lax.stop_gradient(plane)
+    X = jax.lax.stop_gradient(Xw)
+    pi = jnp.sum(X[i] * n[:, None, :], -1)
+    pj = jnp.sum(X[j] * n[:, None, :], -1)
+    gap = jnp.min(jnp.where(vertex_mask[j], pj, jnp.inf), 1) - jnp.max(jnp.where(vertex_mask[i], pi, -jnp.inf), 1)
+    return plane_valid & (gap > margin[i] + margin[j]), gap
+
+
 def _remap(old: ContactHistory, pairs, mask, B):
     """Carry plane / shear history from the old pair buffer to the new one (matching (i, j))."""
     big = B * B + 1
@@ -497,8 +528,36 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
         return out
 
     i, j = pairs[:, 0], pairs[:, 1]
-    per = _segmented(pair_forces, mask, (i, j, mask, hist.plane, hist.plane_valid, hist.shear, hist.contact_feature),
-                     config.pair_segment, fill={"feature": -1, "contact_feature": -1})
+    args = (i, j, mask, hist.plane, hist.plane_valid, hist.shear, hist.contact_feature)
+    fill = {"feature": -1, "contact_feature": -1}
+    if config.skip_separated:
+        # pairs their stored plane still separates beyond the contact tolerances are not evaluated
+        # (no contact points, zero forces, plane kept); the rest are gathered to the front so that
+        # whole segments of separated pairs are skipped
+        slack = 0.5 * config.joint_aperture if config.joint_water else 0.0
+        clear, warm_gap = separated_pairs(Xw, sh.vertex_mask, sh, pairs, hist.plane, hist.plane_valid,
+                                          tol_rel=config.inside_tolerance, slack=slack)
+        if config.joint_water:  # the joint load fades out by gap = aperture
+            clear = clear & (warm_gap >= config.joint_aperture)
+        keep = mask & ~clear
+        P = mask.shape[0]
+        if 0 < config.pair_segment < P:
+            order = jnp.argsort(~keep, stable=True)
+            inv = jnp.zeros_like(order).at[order].set(jnp.arange(P, dtype=order.dtype))
+            per = _segmented(pair_forces, keep[order], tuple(a[order] for a in args), config.pair_segment, fill)
+            per = {k: v[inv] for k, v in per.items()}
+        else:
+            per = pair_forces(*args)
+        alt = {"normal": hist.plane, "gap": warm_gap}
+
+        def kept(k, v):
+            other = alt[k] if k in alt else jnp.full_like(v, fill.get(k, 0))
+            return jnp.where(keep.reshape(keep.shape + (1,) * (v.ndim - 1)), v, other)
+
+        per = {k: kept(k, v) for k, v in per.items()}
+    else:
+        keep = mask
+        per = _segmented(pair_forces, mask, args, config.pair_segment, fill=fill)
     n, depth, active = per["normal"], per["depth"], per["active"]
     Fj, Tj, Ti = per["Fj"], per["Tj"], per["Ti"]
     if 0 < config.law_slots < active.shape[1]:
@@ -522,7 +581,7 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     deep = jnp.any(depth > config.penetration_limit * rmin[:, None])
     status = status | jnp.where(deep, Status.BLOCK_PENETRATION.value, 0).astype(jnp.int32)
     if return_info:
-        info = dict(pairs=pairs, pair_mask=mask, n_contacts=jnp.sum(active.astype(jnp.int32)),
+        info = dict(pairs=pairs, pair_mask=mask, evaluated=keep, n_contacts=jnp.sum(active.astype(jnp.int32)),
                     **{k: per[k] for k in ("normal", "gap", "fcp_changes", "points", "depth", "active", "feature",
                                            "normal_force", "tangential_force")})
         if config.joint_water:
