@@ -8,6 +8,7 @@ MuJoCo's CPU simulator as a reference ratio.  Prints JSON lines.
     .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-crossing 0 8   # crossings among selected edges
     .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-fcp-iterations 2 0   # the FCP rounds' cost
     .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-support-edges 0 -1   # FCP rounds over the support sets' edges
+    .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-skip-separated   # separated pairs not evaluated
 
 Pile: N boxes (0.18-0.2 m, 2650 kg/m^3) stacked ~4 high in columns in contact on a fixed floor
 slab, with 2 mm lateral jitter (no initial overlap); ``--shape rock``: the same columns of rocks
@@ -163,6 +164,7 @@ def run_blocks(n, steps, chunk=50, pair_segment=64, edges_as_directions=False, s
     return dict(bench="blocks_pile", shape=shape, n_blocks=n, broadphase=bp.value, pair_capacity=cfg.pair_capacity,
                 pair_segment=cfg.pair_segment, law_slots=cfg.law_slots,
                 crossing_edges=getattr(cfg, "crossing_edges", None), support_edges=getattr(cfg, "support_edges", None),
+                skip_separated=getattr(cfg, "skip_separated", None),
                 max_edges=cfg.max_edges, fcp_per_edge=edges_as_directions,
                 fcp_directions=int(st.shape.direction_edge.shape[1]),
                 contact_slots=cfg.contact_slots, fcp_iterations=cfg.fcp_iterations, dt=dt, steps=nsteps,
@@ -263,6 +265,9 @@ def main():
     ap.add_argument("--ab-support-edges", type=int, nargs="+", default=None,
                     help="instead: time each pile with these BlockConfig.support_edges (0 = every edge direction in "
                          "each FCP round; -1 = make_blocks' default, the most any face touches), alternated")
+    ap.add_argument("--ab-skip-separated", action="store_true",
+                    help="instead: time each pile evaluating every candidate pair against skipping the pairs their "
+                         "stored plane separates (BlockConfig.skip_separated), alternated --repeats times")
     ap.add_argument("--shape", choices=("box", "rock"), default="box", help="pile of boxes or of random rocks")
     ap.add_argument("--no-mujoco", action="store_true")
     ap.add_argument("--repeats", type=int, default=2)
@@ -317,6 +322,12 @@ def main():
             alternate(n, [(k, dict(support_edges=None if k < 0 else k, shape=a.shape)) for k in a.ab_support_edges],
                       "blocks_support_edges_ab", keys=("shape", "max_edges", "fcp_directions", "support_edges",
                                                        "mean_contact_points", "status"))
+        return
+    if a.ab_skip_separated:
+        for n in a.sizes:
+            alternate(n, [("every pair", dict(skip_separated=False, shape=a.shape)),
+                          ("skip separated (default)", dict(shape=a.shape))],
+                      "blocks_skip_separated_ab", keys=("shape", "mean_contact_points", "status"))
         return
     for n in a.sizes:
         r = run_blocks(n, steps_for(n), shape=a.shape)

@@ -464,6 +464,20 @@ def sec_blocks(doc: Doc):
                     [[r.get("shape"), r["n_blocks"], r.get("fcp_directions"), r.get("support_edges"),
                       r.get("mean_contact_points"), r["best_wall_s"].get("0"), r["best_wall_s"].get("-1"),
                       r["speedup_over_first"].get("-1"), r.get("status"), r.get("date")] for r in sab]))
+    kab = ab_records("bench_blocks_skip_separated.jsonl",
+                     "python experiments/bench_blocks.py --shape rock --sizes 10 100 --ab-skip-separated --out "
+                     "experiments/results/bench_blocks_skip_separated.jsonl", "blocks_skip_separated_ab")
+    if kab:
+        doc.p("Candidate pairs whose stored common plane still separates them beyond the contact tolerances are not "
+              "evaluated (`BlockConfig.skip_separated`, the default; `contact.separated_pairs`) against evaluating "
+              "every candidate pair each step: the same loads (tests/blocks/test_skip_separated.py); best of the "
+              "alternated runs in one process.")
+        doc.p(table(["pile", "blocks", "candidate pairs", "contact points", "every pair s", "skipping s", "speed-up",
+                     "status", "date"],
+                    [[r.get("shape"), r["n_blocks"], r.get("mean_pairs"), r.get("mean_contact_points"),
+                      r["best_wall_s"].get("every pair"), r["best_wall_s"].get("skip separated (default)"),
+                      r["speedup_over_first"].get("skip separated (default)"), r.get("status"), r.get("date")]
+                     for r in kab]))
     fcp = [r for r in recs if r.get("bench") == "fcp_iterations"]
     if fcp:
         doc.p(table(["FCP iterations", "cases", "fraction exact", "max depth err / L", "mean depth err / L"],
