@@ -4,7 +4,10 @@ Owns :func:`contact_forces` (broad phase -> history remap -> FCP -> contact poin
 forces and torques on each block) and :class:`ContactHistory`. The per-pair part (FCP, points,
 law, joint water) runs over the pair buffer in segments of ``BlockConfig.pair_segment`` slots and
 skips a segment holding no overlapping pair (``_segmented``); the pairs' loads are then summed
-onto the blocks.
+onto the blocks. With ``BlockConfig.skip_separated`` (default) a candidate pair whose stored
+common plane still separates it by more than the contact tolerances can reach across
+(:func:`separated_pairs`) is not evaluated (no contact, zero load, plane kept), and the evaluated
+pairs are gathered to the front so that segments of separated ones are skipped whole.
 
 Contact points of a pair (i, j) with common-plane normal n (from i to j) -- padded, masked, never
 pruned; each point carries its contact *feature* (a vertex, a pair of edges, the fallback: an id,
