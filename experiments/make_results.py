@@ -362,9 +362,9 @@ def sec_blocks(doc: Doc):
         r, m = ours[n], mj.get(n, {})
         rows.append([n, r.get("broadphase"), r.get("steps"), r.get("dt"), r.get("block_steps_per_s"),
                      r.get("contact_evals_per_s"), r.get("mean_contact_points"), r.get("status"),
-                     m.get("block_steps_per_s"), m.get("ratio_rockjax_over_mujoco") or m.get("skipped")])
+                     m.get("block_steps_per_s"), m.get("ratio_rockjax_over_mujoco") or m.get("skipped"), r.get("date")])
     doc.p(table(["blocks", "broad phase", "steps", "dt [s]", "block-steps/s", "contact evals/s", "contact points",
-                 "status", "MuJoCo block-steps/s", "rockjax / MuJoCo"], rows))
+                 "status", "MuJoCo block-steps/s", "rockjax / MuJoCo", "date"], rows))
     rock = doc.records("bench_blocks_rock.jsonl", "python experiments/bench_blocks.py --shape rock --sizes 10 100 "
                        "--no-fcp --out experiments/results/bench_blocks_rock.jsonl")
     if rock:
