@@ -116,9 +116,10 @@ class BlockConfig:
         ``Status.CONTACT_POINT_OVERFLOW``, which the driver cures by doubling it. 0, or >=
         ``contact_slots``: the law runs over every slot (``history_slots``).
       pair_segment: the narrow phase (FCP and contact points) runs over the pair buffer in
-        segments of this many slots and skips a segment holding no overlapping pair (the broad
-        phase compacts the pairs at the front of the buffer, so a half-empty buffer costs about
-        half). 0, or >= pair_capacity: one pass over every slot.
+        segments of this many slots and skips a segment holding no pair to evaluate (the broad
+        phase compacts the candidate pairs at the front of the buffer, and with
+        ``skip_separated`` the pairs to evaluate are gathered before the separated ones, so a
+        half-empty buffer costs about half). 0, or >= pair_capacity: one pass over every slot.
       skip_separated: a pair whose stored common plane still separates it by more than the
         contact tolerances can reach across (``contact.separated_pairs``; for a 12-vertex rock
         ~1e-4 of its size, plus the joint aperture with joint water) is not evaluated that step: no
