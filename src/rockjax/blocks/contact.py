@@ -64,7 +64,7 @@ import jax.numpy as jnp
 
 from ..types import Status, _pytree_dataclass
 from .broadphase import candidate_pairs, pairs_are_static
-from .fcp import _first_k, fcp_pair, sat_start, vertex_directions
+from .fcp import _first_k, fcp_pair, gap_along, sat_start, vertex_directions
 from .joint_water import joint_water_load
 from .model import BlockConfig, BlockParams, BlockState, Motion, block_mass, world_planes, world_vertices
 from .rotation import project, safe_norm
@@ -351,9 +351,8 @@ def separated_pairs(Xw, vertex_mask, shape, pairs, plane, plane_valid, *, tol_re
     i, j = pairs[:, 0], pairs[:, 1]
     n = jax.lax.stop_gradient(plane)
     X = jax.lax.stop_gradient(Xw)
-    pi = jnp.sum(X[i] * n[:, None, :], -1)
-    pj = jnp.sum(X[j] * n[:, None, :], -1)
-    gap = jnp.min(jnp.where(vertex_mask[j], pj, jnp.inf), 1) - jnp.max(jnp.where(vertex_mask[i], pi, -jnp.inf), 1)
+    gap = jax.vmap(lambda n, Xi, mi, Xj, mj: gap_along(n[None], Xi, mi, Xj, mj)[0][0])(
+        n, X[i], vertex_mask[i], X[j], vertex_mask[j])
     return plane_valid & (gap > margin[i] + margin[j]), gap
 
 
