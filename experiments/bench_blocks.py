@@ -121,12 +121,12 @@ def _n_points(s):
 ROCK_WARMUP_S = 0.05
 
 
-def run_blocks(n, steps, chunk=50, pair_segment=64, edges_as_directions=False, shape="box", **kw):
+def run_blocks(n, steps, chunk=50, pair_segment=None, edges_as_directions=False, shape="box", **kw):
     polys, pos = pile(n, shape=shape)
     motion = [Motion.FIXED] + [Motion.DYNAMIC] * n
     bp = Broadphase.ALL_PAIRS if n <= 32 else Broadphase.GRID
     cfg, par, st = make_blocks(polys, positions=pos, motion=motion, normal_stiffness=1e7, shear_stiffness=4e6,
-                               broadphase=bp, pair_capacity=None, pair_segment=pair_segment, **kw)
+                               broadphase=bp, pair_capacity=None, **({} if pair_segment is None else {"pair_segment": pair_segment}), **kw)
     if edges_as_directions:
         st = per_edge(st)
     dt = rb.stable_dt(cfg, par, st)

@@ -478,6 +478,19 @@ def sec_blocks(doc: Doc):
                       r["best_wall_s"].get("every pair"), r["best_wall_s"].get("skip separated (default)"),
                       r["speedup_over_first"].get("skip separated (default)"), r.get("status"), r.get("date")]
                      for r in kab]))
+    zab = ab_records("bench_blocks_segment_size.jsonl",
+                     "python experiments/bench_blocks.py --shape rock --sizes 10 100 --ab-segments 64 16 8 (and "
+                     "--shape box ... 64 32 16)", "blocks_pair_segment_ab")
+    if zab:
+        doc.p("The segment size (`BlockConfig.pair_segment`) with the separated-pair skip: the evaluated pairs are "
+              "gathered to the front, so a pile with few of them runs one short segment; 16 is the default since "
+              "2026-11-27 (was 64). Best of the alternated runs in one process (s for 200 steps).")
+        sizes = sorted({int(k) for r in zab for k in r["best_wall_s"]}, reverse=True)
+        doc.p(table(["pile", "blocks", "pair slots", "candidate pairs"] + [f"segment {k} s" for k in sizes]
+                    + ["16 vs 64", "date"],
+                    [[r.get("shape"), r["n_blocks"], r["pair_capacity"], r["mean_pairs"]]
+                     + [r["best_wall_s"].get(str(k)) for k in sizes]
+                     + [r["speedup_over_first"].get("16"), r.get("date")] for r in zab]))
     fcp = [r for r in recs if r.get("bench") == "fcp_iterations"]
     if fcp:
         doc.p(table(["FCP iterations", "cases", "fraction exact", "max depth err / L", "mean depth err / L"],
