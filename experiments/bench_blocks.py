@@ -9,6 +9,7 @@ MuJoCo's CPU simulator as a reference ratio.  Prints JSON lines.
     .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-fcp-iterations 2 0   # the FCP rounds' cost
     .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-support-edges 0 -1   # FCP rounds over the support sets' edges
     .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-skip-separated   # separated pairs not evaluated
+    .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 10 100 --ab-fcp-crosses 0 -1   # FCP crosses enumerated
 
 Pile: N boxes (0.18-0.2 m, 2650 kg/m^3) stacked ~4 high in columns in contact on a fixed floor
 slab, with 2 mm lateral jitter (no initial overlap); ``--shape rock``: the same columns of rocks
@@ -164,7 +165,7 @@ def run_blocks(n, steps, chunk=50, pair_segment=None, edges_as_directions=False,
     return dict(bench="blocks_pile", shape=shape, n_blocks=n, broadphase=bp.value, pair_capacity=cfg.pair_capacity,
                 pair_segment=cfg.pair_segment, law_slots=cfg.law_slots,
                 crossing_edges=getattr(cfg, "crossing_edges", None), support_edges=getattr(cfg, "support_edges", None),
-                skip_separated=getattr(cfg, "skip_separated", None),
+                fcp_crosses=getattr(cfg, "fcp_crosses", None), skip_separated=getattr(cfg, "skip_separated", None),
                 max_edges=cfg.max_edges, fcp_per_edge=edges_as_directions,
                 fcp_directions=int(st.shape.direction_edge.shape[1]),
                 contact_slots=cfg.contact_slots, fcp_iterations=cfg.fcp_iterations, dt=dt, steps=nsteps,
@@ -265,6 +266,9 @@ def main():
     ap.add_argument("--ab-support-edges", type=int, nargs="+", default=None,
                     help="instead: time each pile with these BlockConfig.support_edges (0 = every edge direction in "
                          "each FCP round; -1 = make_blocks' default, the most any face touches), alternated")
+    ap.add_argument("--ab-fcp-crosses", type=int, nargs="+", default=None,
+                    help="instead: time each pile with these BlockConfig.fcp_crosses (0 = every cross of the gathered "
+                         "directions, support_edges^2 slots; -1 = make_blocks' default), alternated")
     ap.add_argument("--ab-skip-separated", action="store_true",
                     help="instead: time each pile evaluating every candidate pair against skipping the pairs their "
                          "stored plane separates (BlockConfig.skip_separated), alternated --repeats times")
@@ -322,6 +326,12 @@ def main():
             alternate(n, [(k, dict(support_edges=None if k < 0 else k, shape=a.shape)) for k in a.ab_support_edges],
                       "blocks_support_edges_ab", keys=("shape", "max_edges", "fcp_directions", "support_edges",
                                                        "mean_contact_points", "status"))
+        return
+    if a.ab_fcp_crosses:
+        for n in a.sizes:
+            alternate(n, [(k, dict(fcp_crosses=None if k < 0 else k, shape=a.shape)) for k in a.ab_fcp_crosses],
+                      "blocks_fcp_crosses_ab", keys=("shape", "support_edges", "fcp_crosses", "mean_contact_points",
+                                                     "status"))
         return
     if a.ab_skip_separated:
         for n in a.sizes:

@@ -166,6 +166,8 @@ def _grow(config: Config, period: int, state: State, bits: int) -> tuple[Config,
         grown["crossing_edges"] = min(2 * b.crossing_edges, b.max_edges)
     if bits & Status.SUPPORT_EDGE_OVERFLOW:
         grown["support_edges"] = min(2 * b.support_edges, b.max_edges)
+    if bits & Status.FCP_CROSS_OVERFLOW:
+        grown["fcp_crosses"] = min(2 * b.fcp_crosses, b.support_edges ** 2)
     if grown:
         changes["blocks"] = dataclasses.replace(b, **grown)
     if bits & Status.NEIGHBOUR_OVERFLOW:

@@ -141,6 +141,7 @@ class Status(enum.IntFlag):
     BLOCK_CELL_OVERFLOW = 8192  #: a broad-phase grid cell holds more blocks than ``BlockConfig.grid_cell_capacity``
     CROSSING_EDGE_OVERFLOW = 16384  #: a block of a pair has more edges inside the other than ``BlockConfig.crossing_edges``
     SUPPORT_EDGE_OVERFLOW = 32768  #: an FCP support set touches more edge directions than ``BlockConfig.support_edges``
+    FCP_CROSS_OVERFLOW = 65536  #: an FCP round had more edge crosses than ``BlockConfig.fcp_crosses``
 
     @classmethod
     def growable(cls) -> "Status":
@@ -148,7 +149,7 @@ class Status(enum.IntFlag):
         return (cls.NEIGHBOUR_OVERFLOW | cls.CELL_OVERFLOW | cls.NEIGHBOUR_STALE | cls.CONTACT_OVERFLOW
                 | cls.WALL_PAIR_OVERFLOW | cls.JOINT_PATCH_OVERFLOW | cls.BODY_PAIR_OVERFLOW
                 | cls.CONTACT_POINT_OVERFLOW | cls.BLOCK_CELL_OVERFLOW | cls.CROSSING_EDGE_OVERFLOW
-                | cls.SUPPORT_EDGE_OVERFLOW)
+                | cls.SUPPORT_EDGE_OVERFLOW | cls.FCP_CROSS_OVERFLOW)
 
     @classmethod
     def describe(cls, bits: int) -> str:

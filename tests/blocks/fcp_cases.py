@@ -98,11 +98,13 @@ def sat(pi, qi, xi, pj, qj, xj):
 
 
 @functools.lru_cache(maxsize=None)
-def fcp_fn(iterations: int, by_direction: bool = True, crossing_edges: int = 0, support_edges: int = 0):
+def fcp_fn(iterations: int, by_direction: bool = True, crossing_edges: int = 0, support_edges: int = 0,
+           crosses: int = 0):
     """Jitted ``(bi, qi, xi, bj, qj, xj, n_prev, prev_valid) -> dict`` on padded blocks; with
     ``by_direction`` the FCP scores edge directions (as ``contact_forces`` does), else every edge;
     ``crossing_edges``: of ``pair_contacts`` (0: crossings among every edge); ``support_edges``: of
-    ``fcp_pair`` (0: every direction in each round)."""
+    ``fcp_pair`` (0: every direction in each round); ``crosses``: of ``fcp_pair`` (0: every
+    cross of the gathered directions)."""
 
     def run(bi, qi, xi, bj, qj, xj, n_prev, prev_valid):
         Ri, Rj = quat_matrix(qi), quat_matrix(qj)
@@ -114,7 +116,7 @@ def fcp_fn(iterations: int, by_direction: bool = True, crossing_edges: int = 0, 
         out = fcp_pair(Xi, bi["vm"], Ni, bi["fm"], bi["e"], bi["em"],
                        Xj, bj["vm"], Nj, bj["fm"], bj["e"], bj["em"], xi, xj, n_prev, prev_valid,
                        bi["dirs"] if by_direction else None, bj["dirs"] if by_direction else None,
-                       iterations=iterations, support_edges=support_edges)
+                       iterations=iterations, support_edges=support_edges, crosses=crosses)
         pc = pair_contacts(Xi, bi["vm"], Ni, Di, bi["fm"], bi["e"], bi["em"], bi["r"],
                            Xj, bj["vm"], Nj, Dj, bj["fm"], bj["e"], bj["em"], bj["r"],
                            out["normal"], out["gap"], tol_rel=1e-4, edge_contacts=True, crossing_edges=crossing_edges)

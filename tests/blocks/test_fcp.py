@@ -17,7 +17,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from rockjax.blocks import box, quat_from_axis_angle
+from rockjax.blocks import Motion, box, make_blocks, quat_from_axis_angle
 
 from fcp_cases import fcp_fn, padded, place_at_gap, random_block, random_rotation, sat, support_edges_of
 
@@ -205,6 +205,11 @@ def test_direction_candidates_find_the_same_plane(seed):
     assert abs(a["normal"] @ b["normal"]) > 1 - 1e-6
 
 
+def _edge_faces(poly):
+    """The two faces on either side of each edge: [(face, face)] (from the half-edges)."""
+    return [tuple(poly.he_face[poly.he_edge == e]) for e in range(poly.n_edges)]
+
+
 def test_support_directions():
     """``ConvexPolyhedron.support_directions``: the most edge directions touching one face (the
     largest support set). Closed forms: a box's face touches all 3 directions, a tetrahedron's all
@@ -219,6 +224,13 @@ def test_support_directions():
     assert box(1.0, 2.0, 3.0).support_directions() == 3
     assert tet.support_directions() == 6
     assert pent.support_directions() == 6 and len(pent.edge_directions()[1]) == 6
+    # one edge's two vertices / one vertex: a box 3 / 3, a tetrahedron 5 (all but the opposite
+    # edge) / 3, the prism 4 (a base edge, its two neighbours, the vertical) / 3
+    assert [box(1.0, 2.0, 3.0).support_directions(f) for f in ("edge", "vertex")] == [3, 3]
+    assert [tet.support_directions(f) for f in ("edge", "vertex")] == [5, 3]
+    assert [pent.support_directions(f) for f in ("edge", "vertex")] == [4, 3]
+    with pytest.raises(ValueError, match="feature"):
+        tet.support_directions("corner")
 
     def touching(poly, group, n):
         p = poly.vertices @ n
@@ -234,6 +246,12 @@ def test_support_directions():
         assert 3 <= by_face < rock.n_edges
         dirs = rng.normal(size=(200, 3))
         assert max(touching(rock, group, n) for n in dirs) <= by_face
+        # a generic direction's support set is one vertex
+        assert max(touching(rock, group, n) for n in dirs) <= rock.support_directions("vertex")
+        # an edge's: along the mean of its two faces' normals
+        by_edge = max(touching(rock, group, rock.face_normal[a] + rock.face_normal[b])
+                      for a, b in _edge_faces(rock))
+        assert rock.support_directions("edge") == by_edge
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -242,7 +260,10 @@ def test_support_edges_find_the_same_plane(seed, x64):
     ``support_edges`` rows (``make_blocks``' default: the most any face touches), scores the same
     valid candidates in the same order as a round over every direction: the same plane, bit for
     bit, in float64 (overlapping and separated random hulls, warm and cold starts). Fewer rows than
-    a support set touches set ``support_overflow``."""
+    a support set touches set ``support_overflow``. The crosses of the gathered directions
+    enumerated into ``make_blocks``' default ``fcp_crosses`` slots (the generic face-vertex /
+    edge-edge bound, fewer than ``support_edges^2``) find that plane too; 4 slots (fewer than two
+    vertices' directions cross into) set ``cross_overflow``."""
     rng = np.random.default_rng(100 + seed)
     pi, pj = random_block(rng, 12), random_block(rng, int(rng.integers(8, 13)))
     qi, qj = random_rotation(rng), random_rotation(rng)
@@ -251,6 +272,8 @@ def test_support_edges_find_the_same_plane(seed, x64):
     xj = place_at_gap(pi, qi, pj, qj, rng.normal(size=3), target)
     k = max(pi.support_directions(), pj.support_directions())
     assert k < pi.n_edges  # the gathering is exercised
+    c = make_blocks([pi, pj], positions=np.stack([np.zeros(3), xj]), motion=[Motion.FIXED, Motion.DYNAMIC])[0].fcp_crosses
+    assert 0 < c < k * k  # the enumeration is exercised
     n_prev = rng.normal(size=3)
     n_prev /= np.linalg.norm(n_prev)
     for prev in (np.zeros(3), n_prev):
@@ -263,6 +286,11 @@ def test_support_edges_find_the_same_plane(seed, x64):
         assert gathered["gap"] == full["gap"] and gathered["changes"] == full["changes"]
         assert (gathered["gap"] < 0) == (target < 0)
         assert fcp_fn(4, True, 0, 2)(*args)["support_overflow"]  # a vertex alone touches >= 3
+        enumerated = jax.tree.map(np.asarray, fcp_fn(4, True, 0, k, c)(*args))
+        assert not enumerated["cross_overflow"] and not enumerated["support_overflow"]
+        np.testing.assert_array_equal(enumerated["normal"], full["normal"])
+        assert enumerated["gap"] == full["gap"] and enumerated["changes"] == full["changes"]
+        assert not full["cross_overflow"] and fcp_fn(4, True, 0, k, 4)(*args)["cross_overflow"]
 
 
 def test_box_pairs_start_from_every_separating_axis(x64):

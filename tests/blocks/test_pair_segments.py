@@ -287,3 +287,52 @@ def test_support_edges_overflow_flagged_and_grown(x64):
                            Status.SUPPORT_EDGE_OVERFLOW).support_edges == cfg2.max_edges
     with pytest.raises(ValueError, match="support_edges"):
         make_blocks(shapes, support_edges=-1, **kw)
+
+
+def test_fcp_crosses_overflow_flagged_and_grown(x64):
+    """The rocks of ``test_support_edges_overflow_flagged_and_grown`` pressed together:
+    ``make_blocks``' default ``fcp_crosses`` (fewer slots than ``support_edges^2``) gives the plane,
+    points and loads of every slot (0), and the same gradients with respect to the poses; 4 slots
+    are fewer than the crosses of two vertices' directions, which sets FCP_CROSS_OVERFLOW (a
+    growable bit), and the driver's ``_grow`` doubles it (at most ``support_edges^2``)."""
+    from rockjax.blocks import quat_from_axis_angle
+    from rockjax.types import Status
+
+    from fcp_cases import place_at_gap, random_block
+
+    rng = np.random.default_rng(4)
+    shapes = [random_block(rng, 12), random_block(rng, 12)]
+    q = np.stack([[1.0, 0, 0, 0], quat_from_axis_angle((0.3, 0.2, 1), 0.7)])
+    pos = np.stack([np.zeros(3), place_at_gap(shapes[0], q[0], shapes[1], q[1], (0.2, -0.1, 1.0), -0.02)])
+    kw = dict(positions=pos, orientations=q, motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6)
+    cfg, _, _ = make_blocks(shapes, **kw)
+    assert 0 < cfg.fcp_crosses < cfg.support_edges ** 2
+    out = {}
+    for c in (0, None, 4):
+        F, T, _, status, info = _forces(shapes, fcp_crosses=c, **kw)
+        out[c] = (np.asarray(F), np.asarray(T), int(status), np.asarray(info["normal"])[0],
+                  int(np.asarray(info["active"]).sum()))
+    assert out[0][2] == 0 and out[None][2] == 0
+    assert out[0][4] > 0  # in contact
+    np.testing.assert_array_equal(out[None][3], out[0][3])
+    assert_same_loads(out[None], out[0])
+    assert out[4][2] & Status.FCP_CROSS_OVERFLOW
+    assert Status.FCP_CROSS_OVERFLOW & Status.growable()
+    grads = {}
+    for c in (0, None):
+        cfg_c, par, st = make_blocks(shapes, fcp_crosses=c, **kw)
+
+        def load(x, q, cfg_c=cfg_c, par=par, st=st):
+            F, T = rb.contact_forces(st.replace(x=x, q=q), par, cfg_c, dt=1e-4)[:2]
+            return F[1] @ jnp.array([0.3, -0.2, 1.0]) + T[1] @ jnp.array([1.0, 0.5, -0.4])
+
+        grads[c] = jax.jit(jax.grad(load, argnums=(0, 1)))(st.x, st.q)
+    assert np.any(np.asarray(grads[0][1]) != 0)
+    for a, b in zip(grads[None], grads[0]):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-10, atol=1e-10 * float(np.abs(b).max()))
+    cfg4 = dataclasses.replace(cfg, fcp_crosses=4)
+    assert grown_by_driver(cfg4, Status.FCP_CROSS_OVERFLOW).fcp_crosses == 8
+    assert grown_by_driver(dataclasses.replace(cfg, fcp_crosses=cfg.support_edges ** 2 - 8),
+                           Status.FCP_CROSS_OVERFLOW).fcp_crosses == cfg.support_edges ** 2
+    with pytest.raises(ValueError, match="fcp_crosses"):
+        make_blocks(shapes, fcp_crosses=-1, **kw)

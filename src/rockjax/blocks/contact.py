@@ -422,6 +422,7 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     n_dir = sh.direction_edge.shape[1]
     iterations = 0 if sat_start(n_dir) and not config.joint_water else config.fcp_iterations
     support_edges = config.support_edges if 0 < config.support_edges < n_dir else 0
+    crosses = config.fcp_crosses if support_edges and 0 < config.fcp_crosses < support_edges ** 2 else 0
     # which edge directions touch each vertex: shape only, built once per block (not per pair and round)
     vdir = jax.vmap(lambda e, em, g: vertex_directions(e, em, sh.vertex_mask.shape[1], g, n_dir))(
         sh.edges, sh.edge_mask, sh.edge_direction)  # [B, V, nD]
@@ -429,7 +430,8 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     def pair_forces(i, j, mask, plane, plane_valid, shear, feature_old):
         """FCP, contact points and the contact law of the pairs (i, j) [S] (a segment of the
         buffer): per-pair forces on j and torques on i and j, the new shear history, diagnostics."""
-        fcp = jax.vmap(lambda *a: fcp_pair(*a, iterations=iterations, support_edges=support_edges))(
+        fcp = jax.vmap(lambda *a: fcp_pair(*a, iterations=iterations, support_edges=support_edges,
+                                           crosses=crosses))(
             Xw[i], sh.vertex_mask[i], Nw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i],
             Xw[j], sh.vertex_mask[j], Nw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j],
             state.x[i], state.x[j], plane, plane_valid,
@@ -501,7 +503,7 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
             return jnp.zeros(active_all.shape + a.shape[2:], a.dtype).at[rows, slot].set(a, mode="drop")
 
         out = dict(normal=n, gap=fcp["gap"], fcp_changes=fcp["changes"],
-                   support_overflow=fcp["support_overflow"] & mask, points=pts_all, depth=depth_all,
+                   support_overflow=fcp["support_overflow"] & mask, cross_overflow=fcp["cross_overflow"] & mask, points=pts_all, depth=depth_all,
                    active=active_all, feature=feature_all, n_points=n_points, edge_overflow=edge_overflow,
                    normal_force=per_slot(fn), tangential_force=per_slot(ft_c), shear=u_new, contact_feature=feature,
                    Fj=jnp.sum(F, 1), Tj=jnp.sum(jnp.cross(rj, F), 1), Ti=-jnp.sum(jnp.cross(ri, F), 1))
@@ -571,6 +573,9 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     if support_edges:
         over = jnp.any(per["support_overflow"])
         status = status | jnp.where(over, Status.SUPPORT_EDGE_OVERFLOW.value, 0).astype(jnp.int32)
+    if crosses:
+        over = jnp.any(per["cross_overflow"])
+        status = status | jnp.where(over, Status.FCP_CROSS_OVERFLOW.value, 0).astype(jnp.int32)
     if config.joint_water and config.joint_patch_points < active.shape[1]:
         over = jnp.any(per["joint_count"] > config.joint_patch_points)
         status = status | jnp.where(over, Status.JOINT_PATCH_OVERFLOW.value, 0).astype(jnp.int32)

@@ -149,7 +149,26 @@ def _crosses(ea, ma, eb, mb):
     return cr, (ma[:, None] & mb[None, :]).reshape(-1) & (s > 1e-10 * ref)
 
 
-def _local_candidates(n, Xi, mi, Nti, fmi, di, Xj, mj, Ntj, fmj, dj, scale, support_edges: int = 0):
+def _crosses_first(ea, na, eb, nb, cap: int):
+    """The cross products of the first ``na`` columns of ``ea`` [3,Ka] with the first ``nb`` of
+    ``eb`` [3,Kb], a-major (the order of :func:`_crosses`' valid ones when its masks are those
+    prefixes), enumerated into ``cap`` slots (slot t: a = t // nb, b = t % nb).
+
+    Returns ``(crosses [3,cap], valid [cap], overflow [])``: valid as :func:`_crosses` (in the
+    rectangle, not parallel); overflow when ``na nb > cap`` (the crosses past ``cap`` are missing)."""
+    t = jnp.arange(cap, dtype=jnp.int32)
+    nb_ = jnp.maximum(nb, 1).astype(jnp.int32)
+    inside = t < na * nb
+    a, b = jnp.where(inside, t // nb_, 0), jnp.where(inside, t % nb_, 0)
+    (a0, a1, a2), (b0, b1, b2) = jnp.take(ea, a, axis=1), jnp.take(eb, b, axis=1)
+    cr = jnp.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+    ref = (a0 * a0 + a1 * a1 + a2 * a2) * (b0 * b0 + b1 * b1 + b2 * b2)
+    s = cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]
+    return cr, inside & (s > 1e-10 * ref), na * nb > cap
+
+
+def _local_candidates(n, Xi, mi, Nti, fmi, di, Xj, mj, Ntj, fmj, dj, scale, support_edges: int = 0,
+                      crosses: int = 0):
     """Seed candidate types a-d at the support features of the plane n, plus n itself (last).
 
     The "closest vertices" of the paper are generalised to the support SETS (all vertices
@@ -163,12 +182,16 @@ def _local_candidates(n, Xi, mi, Nti, fmi, di, Xj, mj, Ntj, fmj, dj, scale, supp
     scores 29 candidates instead of 182.
     With ``support_edges`` = k (0: all), the edges (directions) touching each support set are first
     gathered into k columns (in order, so the candidates and their ties are those of the full set):
-    a 12-vertex rock pair scores ~k^2 + 2k + 42 candidates instead of 1000.
+    a 12-vertex rock pair scores ~k^2 + 2k + 42 candidates instead of 1000. With ``crosses`` = c
+    as well (0 < c < k^2), the ka x kb crosses of the gathered directions (ka, kb of them touching
+    the two support sets) are enumerated into c slots instead of k^2 (:func:`_crosses_first`; the
+    same valid crosses in the same order, so the same plane while ka kb <= c).
 
     Args: as :func:`fcp_pair`, but the face normals ``Nti``, ``Ntj`` [3,F] component-major.
     Returns:
-      ``(candidates [3,C] unit, valid [C], overflow [])``: overflow when a support set touches
-      more than ``support_edges`` directions (some candidates were not scored).
+      ``(candidates [3,C] unit, valid [C], support_overflow [], cross_overflow [])``: a support set
+      touched more than ``support_edges`` directions, or ka kb exceeded ``crosses`` (some
+      candidates were not scored).
     """
     pi = project(Xi, n)
     pj = project(Xj, n)
@@ -184,7 +207,13 @@ def _local_candidates(n, Xi, mi, Nti, fmi, di, Xj, mj, Ntj, fmj, dj, scale, supp
     eb, mb = dj[0], dj[1] & jnp.any(set_j[:, None] & dj[2], 0)
     ea, ma, over_a = _support_edges(ea, ma, support_edges)
     eb, mb, over_b = _support_edges(eb, mb, support_edges)
-    cr, cr_ok = _crosses(ea, ma, eb, mb)  # type c; parallel edges invalid
+    if support_edges > 0 and 0 < crosses < ea.shape[1] * eb.shape[1] and ea.shape[1] < di[0].shape[1]:
+        # gathered: the masks are prefixes, so the valid crosses are the top-left ka x kb block
+        cr, cr_ok, over_c = _crosses_first(ea, jnp.sum(ma.astype(jnp.int32)), eb, jnp.sum(mb.astype(jnp.int32)),
+                                           crosses)
+    else:
+        cr, cr_ok = _crosses(ea, ma, eb, mb)  # type c; parallel edges invalid
+        over_c = jnp.zeros((), bool)
     e_all = jnp.concatenate([ea, eb], 1)  # [3, 2k]
     l_all = e_all[0] * e_all[0] + e_all[1] * e_all[1] + e_all[2] * e_all[2]
     m_all = jnp.concatenate([ma, mb], 0)
@@ -195,7 +224,7 @@ def _local_candidates(n, Xi, mi, Nti, fmi, di, Xj, mj, Ntj, fmj, dj, scale, supp
     d_ok = jnp.sum(d * d) > eps_abs
     cands = jnp.concatenate([Nti, -Ntj, cr, perp, d[:, None], n[:, None]], 1)
     valid = jnp.concatenate([fmi, fmj, cr_ok, perp_ok, d_ok[None], jnp.ones(1, bool)], 0)
-    return (*_normalise(cands, valid, 0.0), over_a | over_b)
+    return (*_normalise(cands, valid, 0.0), over_a | over_b, over_c)
 
 
 #: the start holds every cross product of two edge directions (with the face normals: every
@@ -209,7 +238,7 @@ def sat_start(n_directions: int) -> bool:
 
 
 def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev, prev_valid, dirs_i=None, dirs_j=None,
-             *, iterations: int, support_edges: int = 0):
+             *, iterations: int, support_edges: int = 0, crosses: int = 0):
     """Common plane of blocks i and j.
 
     Args:
@@ -229,11 +258,14 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
       iterations: fixed FCP iteration count (static).
       support_edges: the candidates of a round are built from at most this many edge directions
         touching each support set (``BlockConfig.support_edges``; 0: every direction).
+      crosses: with ``support_edges``, the crosses of a round's gathered directions are enumerated
+        into this many slots (``BlockConfig.fcp_crosses``; 0: support_edges^2, every slot).
     Returns:
       dict with ``normal`` [3] (unit, i -> j), ``gap`` [] m (min_j n.x - max_i n.x; < 0 overlap),
       ``support_i`` [] = max_i n.x, ``support_j`` [] = min_j n.x, ``changes`` [] int32 (iterations
       that improved the plane by more than 1e-7 of the block size), ``support_overflow`` [] bool (a
-      support set touched more than ``support_edges`` directions in some round).
+      support set touched more than ``support_edges`` directions in some round), ``cross_overflow``
+      [] bool (a round had more crosses than ``crosses``).
     """
     scale = jnp.maximum(jnp.max(jnp.abs(Xi - ci) * mi[:, None]), jnp.max(jnp.abs(Xj - cj) * mj[:, None]))
     sg = lax.stop_gradient
@@ -251,21 +283,24 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
     n0, g0 = _best(init, init_ok, sXi, mi, sXj, mj)
 
     def body(_, carry):
-        n, g, changes, over = carry
-        c, ok, o = _local_candidates(n, sXi, mi, sNti, fmi, di, sXj, mj, sNtj, fmj, dj, sscale, support_edges)
+        n, g, changes, over, over_c = carry
+        c, ok, o, oc = _local_candidates(n, sXi, mi, sNti, fmi, di, sXj, mj, sNtj, fmj, dj, sscale, support_edges,
+                                         crosses)
         n1, g1 = _best(c, ok, sXi, mi, sXj, mj)
         changes = changes + (g1 > g + 1e-7 * sscale).astype(jnp.int32)
-        return n1, g1, changes, over | o
+        return n1, g1, changes, over | o, over_c | oc
 
-    n_s, _, changes, over = lax.fori_loop(0, iterations, body, (n0, g0, jnp.int32(0), jnp.zeros((), bool)))
+    no = jnp.zeros((), bool)
+    n_s, _, changes, over, over_c = lax.fori_loop(0, iterations, body, (n0, g0, jnp.int32(0), no, no))
     # differentiable last round on the live geometry (ties pick a geometric candidate, not n_s)
     live_i = (_direction_vectors(Xi, ei, dirs_i), *di[1:])
     live_j = (_direction_vectors(Xj, ej, dirs_j), *dj[1:])
-    c, ok, o = _local_candidates(n_s, Xi, mi, Ni.T, fmi, live_i, Xj, mj, Nj.T, fmj, live_j, sscale, support_edges)
+    c, ok, o, oc = _local_candidates(n_s, Xi, mi, Ni.T, fmi, live_i, Xj, mj, Nj.T, fmj, live_j, sscale,
+                                     support_edges, crosses)
     n, _ = _best(c, ok, Xi, mi, Xj, mj)
     pi = project(Xi, n)
     pj = project(Xj, n)
     sup_i = jnp.max(jnp.where(mi, pi, -_BIG))
     sup_j = jnp.min(jnp.where(mj, pj, _BIG))
     return dict(normal=n, gap=sup_j - sup_i, support_i=sup_i, support_j=sup_j, changes=changes,
-                support_overflow=over | o)
+                support_overflow=over | o, cross_overflow=over_c | oc)

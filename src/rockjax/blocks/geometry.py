@@ -342,7 +342,7 @@ class ConvexPolyhedron:
         reps.setflags(write=False)
         return group, reps
 
-    def support_directions(self) -> int:
+    def support_directions(self, feature: str = "face") -> int:
         """The most edge directions (:meth:`edge_directions`) touching one support set.
 
         The support set of a direction n (the vertices farthest along n) is a vertex, an edge or a
@@ -351,12 +351,23 @@ class ConvexPolyhedron:
         directions of the edges with an endpoint on the face (a box: 3; a random 12-vertex rock:
         12-19 of its ~30, 14 on average). The common plane's local candidates are built from these edges only
         (``BlockConfig.support_edges``).
+
+        Args:
+          feature: ``"face"`` (the largest, above), ``"edge"`` (the most touching one edge's two
+            vertices; a 12-vertex rock ~12) or ``"vertex"`` (the most touching one vertex: its
+            degree without parallel edges; a rock ~7). The generic support-set pairs of a common
+            plane, face-vertex and edge-edge, bound its crosses (``BlockConfig.fcp_crosses``).
         """
+        sets = {"face": lambda: (self.face_vertices(f) for f in range(self.n_faces)),
+                "edge": lambda: iter(self.edges),
+                "vertex": lambda: ([v] for v in range(self.n_vertices))}
+        if feature not in sets:
+            raise ValueError(f"support_directions: feature must be 'face', 'edge' or 'vertex', got {feature!r}")
         group, _ = self.edge_directions()
         best = 0
-        for f in range(self.n_faces):
+        for verts in sets[feature]():
             on = np.zeros(self.n_vertices, dtype=bool)
-            on[self.face_vertices(f)] = True
+            on[np.asarray(verts)] = True
             touching = on[self.edges[:, 0]] | on[self.edges[:, 1]]
             best = max(best, len(np.unique(group[touching])))
         return best

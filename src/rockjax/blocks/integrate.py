@@ -63,7 +63,8 @@ def advance_blocks(state: BlockState, params: BlockParams, config: BlockConfig, 
       external_torque: [B,3] N m or None, about the centroid, world frame.
     Returns:
       ``(state, status int32)``: status may hold CONTACT_OVERFLOW, BLOCK_CELL_OVERFLOW,
-      CONTACT_POINT_OVERFLOW, CROSSING_EDGE_OVERFLOW, SUPPORT_EDGE_OVERFLOW, JOINT_PATCH_OVERFLOW
+      CONTACT_POINT_OVERFLOW, CROSSING_EDGE_OVERFLOW, SUPPORT_EDGE_OVERFLOW, FCP_CROSS_OVERFLOW,
+      JOINT_PATCH_OVERFLOW
       (buffers the driver grows), BLOCK_UNSTABLE (dt above the Eq 8 limit for these params),
       BLOCK_PENETRATION and NON_FINITE.
     """

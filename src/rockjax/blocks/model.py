@@ -98,6 +98,15 @@ class BlockConfig:
         support set touching more (near-coplanar faces within round-off) sets
         ``Status.SUPPORT_EDGE_OVERFLOW``, which the driver cures by doubling it. 0, or >= the
         blocks' edge directions: every direction (no gathering).
+      fcp_crosses: with ``support_edges`` gathering, the ka x kb cross products of the directions
+        touching the two support sets (seed type c) are enumerated into this many slots per round
+        instead of ``support_edges^2`` (the same valid crosses in the same order, so the same
+        plane). ``make_blocks`` sets the most that the generic support-set pairs of a plane can
+        give: a face against a vertex (a face normal) or an edge against an edge (an edge cross),
+        ``ConvexPolyhedron.support_directions`` of each feature (12-vertex rocks: ~150 of 361;
+        measured on a settled 100-rock pile: 55 on average, 126 at most). A round with more (face
+        against edge or face, or near-coplanar ties) sets ``Status.FCP_CROSS_OVERFLOW``, which the
+        driver cures by doubling it. 0, or >= ``support_edges^2``: every slot.
       inside_tolerance: relative (to the block's bounding radius) tolerance of the
         point-in-block test that decides which vertices / crossings are contact points.
       penetration_limit: depth / min(bounding radius) above which BLOCK_PENETRATION is set.
@@ -157,6 +166,7 @@ class BlockConfig:
     law_slots: int = 32
     crossing_edges: int = 8
     support_edges: int = 0
+    fcp_crosses: int = 0
     skip_separated: bool = True
 
     def __post_init__(self):
@@ -174,6 +184,8 @@ class BlockConfig:
             raise ValueError(f"BlockConfig.crossing_edges must be >= 0 (got {self.crossing_edges})")
         if self.support_edges < 0:
             raise ValueError(f"BlockConfig.support_edges must be >= 0 (got {self.support_edges})")
+        if self.fcp_crosses < 0:
+            raise ValueError(f"BlockConfig.fcp_crosses must be >= 0 (got {self.fcp_crosses})")
         if self.pair_segment < 0:
             raise ValueError(f"BlockConfig.pair_segment must be >= 0 (got {self.pair_segment})")
         if not (self.prescribed_ramp >= 0.0 and math.isfinite(self.prescribed_ramp)):
@@ -516,6 +528,7 @@ def make_blocks(
     law_slots: int = 32,
     crossing_edges: int = 8,
     support_edges: Optional[int] = None,
+    fcp_crosses: Optional[int] = None,
     skip_separated: bool = True,
 ):
     """Build ``(BlockConfig, BlockParams, BlockState)`` from convex polyhedra, validating every input.
@@ -551,8 +564,10 @@ def make_blocks(
         at ``joint_water_level`` (m, height along -gravity) of ``joint_water_density`` (kg/m^3,
         > 0); see ``blocks.joint_water``.  joint_aperture: m (>= 0), see :class:`BlockConfig`;
         the broad-phase margin is raised to it.  joint_patch_points, pair_segment, law_slots,
-        crossing_edges, support_edges, skip_separated: see :class:`BlockConfig`; ``support_edges``
-        defaults to the most edge directions touching one face of any of the blocks.
+        crossing_edges, support_edges, fcp_crosses, skip_separated: see :class:`BlockConfig`;
+        ``support_edges`` defaults to the most edge directions touching one face of any of the
+        blocks, ``fcp_crosses`` to the crosses of a face against a vertex or of an edge against
+        an edge, whichever is more (rounded up to 8; 0 when that is every slot).
 
     Returns:
       ``(config, params, state)``; state arrays in float32 (float64 under ``jax_enable_x64``).
@@ -660,6 +675,13 @@ def make_blocks(
         support_edges = max(p.support_directions() for p in polys)
     if int(support_edges) != support_edges or support_edges < 0:
         raise ValueError(f"support_edges must be a non-negative integer (0: every edge direction), got {support_edges}")
+    if fcp_crosses is None:
+        face, edge, vertex = (max(p.support_directions(k) for p in polys) for k in ("face", "edge", "vertex"))
+        fcp_crosses = 8 * -(-max(min(face, int(support_edges)) * vertex, edge * edge) // 8)
+        if support_edges <= 0 or fcp_crosses >= int(support_edges) ** 2:
+            fcp_crosses = 0
+    if int(fcp_crosses) != fcp_crosses or fcp_crosses < 0:
+        raise ValueError(f"fcp_crosses must be a non-negative integer (0: support_edges^2 slots), got {fcp_crosses}")
     K = max(max(len(p.halfedges_around_vertex(v)) for v in range(p.n_vertices)) for p in polys)
     V = packed.max_vertices
     stars = [_stars(p, V, K) for p in polys]
@@ -691,6 +713,7 @@ def make_blocks(
         law_slots=int(law_slots),
         crossing_edges=int(crossing_edges),
         support_edges=int(support_edges),
+        fcp_crosses=int(fcp_crosses),
         skip_separated=bool(skip_separated),
     )
 
