@@ -9,7 +9,7 @@ MuJoCo's CPU simulator as a reference ratio.  Prints JSON lines.
     .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-fcp-iterations 2 0   # the FCP rounds' cost
     .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-support-edges 0 -1   # FCP rounds over the support sets' edges
     .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 100 --ab-skip-separated   # separated pairs not evaluated
-    .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 10 100 --ab-fcp-crosses 0 -1   # FCP crosses enumerated
+    .venv/bin/python experiments/bench_blocks.py --shape rock --sizes 10 100 --ab-fcp-crosses 0 192 128   # FCP crosses enumerated
 
 Pile: N boxes (0.18-0.2 m, 2650 kg/m^3) stacked ~4 high in columns in contact on a fixed floor
 slab, with 2 mm lateral jitter (no initial overlap); ``--shape rock``: the same columns of rocks
@@ -290,15 +290,18 @@ def main():
         ``--repeats`` times; emit every run and one record with the best walls and the speed-ups
         over the first variant."""
         walls = {name: [] for name, _ in variants}
+        statuses = {name: set() for name, _ in variants}
         for _ in range(a.repeats):
             for name, kw in variants:
                 r = run_blocks(n, steps_for(n), **kw)
                 walls[name].append(r["wall_s"])
+                statuses[name].add(r["status"])
                 out(dict(r, variant=name))
         best = {name: min(w) for name, w in walls.items()}
         ref = variants[0][0]
         out(dict(bench=bench, n_blocks=n, pair_capacity=r["pair_capacity"], mean_pairs=r["mean_pairs"],
                  **{k: r[k] for k in keys}, best_wall_s=best,
+                 status_by_variant={name: ", ".join(sorted(v)) for name, v in statuses.items()},
                  speedup_over_first={name: best[ref] / b for name, b in best.items()}))
 
     if a.ab_narrow:

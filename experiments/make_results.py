@@ -491,6 +491,23 @@ def sec_blocks(doc: Doc):
                     [[r.get("shape"), r["n_blocks"], r["pair_capacity"], r["mean_pairs"]]
                      + [r["best_wall_s"].get(str(k)) for k in sizes]
                      + [r["speedup_over_first"].get("16"), r.get("date")] for r in zab]))
+    xab = ab_records("bench_blocks_fcp_crosses.jsonl",
+                     "python experiments/bench_blocks.py --shape rock --sizes 10 100 --ab-fcp-crosses 0 192 128 --out "
+                     "experiments/results/bench_blocks_fcp_crosses.jsonl", "blocks_fcp_crosses_ab")
+    if xab:
+        doc.p("The FCP rounds' edge crosses (seed type c) of the directions gathered from the two support sets "
+              "(ka x kb of them) enumerated into `BlockConfig.fcp_crosses` slots instead of scoring all "
+              "`support_edges^2` (0): the same valid crosses in the same order, so the same planes "
+              "(tests/blocks/test_fcp.py); 128 is the default since 2026-11-27. Best of the alternated runs in one "
+              "process (s for 200 steps); status per slot count, `OK`: no round had more crosses than its slots.")
+        cols = sorted({int(k) for r in xab for k in r["best_wall_s"] if int(k) > 0}, reverse=True)
+        doc.p(table(["pile", "blocks", "support_edges", "every slot s"] + [f"{c} slots s" for c in cols]
+                    + ["128 vs every slot", "status", "date"],
+                    [[r.get("shape"), r["n_blocks"], r.get("support_edges"), r["best_wall_s"].get("0")]
+                     + [r["best_wall_s"].get(str(c)) for c in cols]
+                     + [r["speedup_over_first"].get("128"),
+                        "; ".join(f"{k}: {v}" for k, v in r.get("status_by_variant", {}).items()) or r.get("status"),
+                        r.get("date")] for r in xab]))
     fcp = [r for r in recs if r.get("bench") == "fcp_iterations"]
     if fcp:
         doc.p(table(["FCP iterations", "cases", "fraction exact", "max depth err / L", "mean depth err / L"],

@@ -261,9 +261,9 @@ def test_support_edges_find_the_same_plane(seed, x64):
     valid candidates in the same order as a round over every direction: the same plane, bit for
     bit, in float64 (overlapping and separated random hulls, warm and cold starts). Fewer rows than
     a support set touches set ``support_overflow``. The crosses of the gathered directions
-    enumerated into ``make_blocks``' default ``fcp_crosses`` slots (the generic face-vertex /
-    edge-edge bound, fewer than ``support_edges^2``) find that plane too; 4 slots (fewer than two
-    vertices' directions cross into) set ``cross_overflow``."""
+    enumerated into ``make_blocks``' default ``fcp_crosses`` slots (128, fewer than
+    ``support_edges^2``) find that plane too; 4 slots (fewer than two vertices' directions cross
+    into) set ``cross_overflow``."""
     rng = np.random.default_rng(100 + seed)
     pi, pj = random_block(rng, 12), random_block(rng, int(rng.integers(8, 13)))
     qi, qj = random_rotation(rng), random_rotation(rng)

@@ -101,12 +101,15 @@ class BlockConfig:
       fcp_crosses: with ``support_edges`` gathering, the ka x kb cross products of the directions
         touching the two support sets (seed type c) are enumerated into this many slots per round
         instead of ``support_edges^2`` (the same valid crosses in the same order, so the same
-        plane). ``make_blocks`` sets the most that the generic support-set pairs of a plane can
-        give: a face against a vertex (a face normal) or an edge against an edge (an edge cross),
-        ``ConvexPolyhedron.support_directions`` of each feature (12-vertex rocks: ~150 of 361;
-        measured on a settled 100-rock pile: 55 on average, 126 at most). A round with more (face
-        against edge or face, or near-coplanar ties) sets ``Status.FCP_CROSS_OVERFLOW``, which the
-        driver cures by doubling it. 0, or >= ``support_edges^2``: every slot.
+        plane). ``make_blocks`` sets 128 where ``support_edges^2`` is more: measured on a settled
+        100-rock pile (12-vertex rocks, ``support_edges`` 19: 361 slots), 55 crosses on average and
+        126 at most; a plane's generic support-set pairs, a face against a vertex (a face normal)
+        and an edge against an edge (an edge cross), give at most the product of the directions
+        touching each (``ConvexPolyhedron.support_directions``; averages over those rocks 14.4 x
+        6.8 and 11.7 x 11.7, maxima 19 x 9 and 15 x 15). A round with more sets
+        ``Status.FCP_CROSS_OVERFLOW``, which the driver cures by doubling it. 0, or >=
+        ``support_edges^2``: every slot. 128 instead of 361: 1.34x on the 100-rock pile
+        (``bench_blocks.py --ab-fcp-crosses``, RESULTS.md).
       inside_tolerance: relative (to the block's bounding radius) tolerance of the
         point-in-block test that decides which vertices / crossings are contact points.
       penetration_limit: depth / min(bounding radius) above which BLOCK_PENETRATION is set.
@@ -490,6 +493,10 @@ def _stars(poly: ConvexPolyhedron, V: int, K: int):
     return sf, sv, sm
 
 
+#: ``make_blocks``' default ``BlockConfig.fcp_crosses`` (where support_edges^2 is more)
+FCP_CROSSES = 128
+
+
 def make_blocks(
     polyhedra: Sequence[ConvexPolyhedron],
     *,
@@ -566,8 +573,7 @@ def make_blocks(
         the broad-phase margin is raised to it.  joint_patch_points, pair_segment, law_slots,
         crossing_edges, support_edges, fcp_crosses, skip_separated: see :class:`BlockConfig`;
         ``support_edges`` defaults to the most edge directions touching one face of any of the
-        blocks, ``fcp_crosses`` to the crosses of a face against a vertex or of an edge against
-        an edge, whichever is more (rounded up to 8; 0 when that is every slot).
+        blocks, ``fcp_crosses`` to 128 (0, every slot, where ``support_edges^2`` is not more).
 
     Returns:
       ``(config, params, state)``; state arrays in float32 (float64 under ``jax_enable_x64``).
@@ -676,10 +682,7 @@ def make_blocks(
     if int(support_edges) != support_edges or support_edges < 0:
         raise ValueError(f"support_edges must be a non-negative integer (0: every edge direction), got {support_edges}")
     if fcp_crosses is None:
-        face, edge, vertex = (max(p.support_directions(k) for p in polys) for k in ("face", "edge", "vertex"))
-        fcp_crosses = 8 * -(-max(min(face, int(support_edges)) * vertex, edge * edge) // 8)
-        if support_edges <= 0 or fcp_crosses >= int(support_edges) ** 2:
-            fcp_crosses = 0
+        fcp_crosses = FCP_CROSSES if 0 < int(support_edges) and FCP_CROSSES < int(support_edges) ** 2 else 0
     if int(fcp_crosses) != fcp_crosses or fcp_crosses < 0:
         raise ValueError(f"fcp_crosses must be a non-negative integer (0: support_edges^2 slots), got {fcp_crosses}")
     K = max(max(len(p.halfedges_around_vertex(v)) for v in range(p.n_vertices)) for p in polys)
