@@ -357,14 +357,21 @@ def sec_blocks(doc: Doc):
           + (f" Load average when saved: {', '.join(fmt(x) for x in loads)} (shared machine; both codes timed "
              "in the same process one after the other, MuJoCo on 1 thread)."
              if loads else ""))
+    doc.p("Runs: `1` is one run of each code; `best of k`: each code timed k times, alternated in one process, "
+          "the fastest kept (since 2026-11-27: a process's first run is often its slowest).")
+
+    def runs(r):
+        return f"best of {r['best_of']}" if r.get("best_of") else 1
+
     rows = []
     for n in sorted(ours):
         r, m = ours[n], mj.get(n, {})
         rows.append([n, r.get("broadphase"), r.get("steps"), r.get("dt"), r.get("block_steps_per_s"),
                      r.get("contact_evals_per_s"), r.get("mean_contact_points"), r.get("status"),
-                     m.get("block_steps_per_s"), m.get("ratio_rockjax_over_mujoco") or m.get("skipped"), r.get("date")])
+                     m.get("block_steps_per_s"), m.get("ratio_rockjax_over_mujoco") or m.get("skipped"), runs(r),
+                     r.get("date")])
     doc.p(table(["blocks", "broad phase", "steps", "dt [s]", "block-steps/s", "contact evals/s", "contact points",
-                 "status", "MuJoCo block-steps/s", "rockjax / MuJoCo", "date"], rows))
+                 "status", "MuJoCo block-steps/s", "rockjax / MuJoCo", "runs", "date"], rows))
     rock = doc.records("bench_blocks_rock.jsonl", "python experiments/bench_blocks.py --shape rock --sizes 10 100 "
                        "--no-fcp --out experiments/results/bench_blocks_rock.jsonl")
     if rock:
@@ -374,12 +381,12 @@ def sec_blocks(doc: Doc):
               "falling into contact (still bouncing then: few contact points per rock, in both codes); MuJoCo collides "
               "its mesh geoms as their convex hulls.")
         doc.p(table(["rocks", "steps", "dt [s]", "block-steps/s", "contact points", "status", "MuJoCo block-steps/s",
-                     "MuJoCo contacts", "rockjax / MuJoCo", "date"],
+                     "MuJoCo contacts", "rockjax / MuJoCo", "runs", "date"],
                     [[n, ours[n].get("steps"), ours[n].get("dt"), ours[n].get("block_steps_per_s"),
                       ours[n].get("mean_contact_points"), ours[n].get("status"),
                       mj.get(n, {}).get("block_steps_per_s"), mj.get(n, {}).get("mean_contacts"),
                       mj.get(n, {}).get("ratio_rockjax_over_mujoco") or mj.get(n, {}).get("skipped"),
-                      ours[n].get("date")] for n in sorted(ours)]))
+                      runs(ours[n]), ours[n].get("date")] for n in sorted(ours)]))
     def ab_records(name, cmd, bench):
         return [r for r in doc.records(name, cmd) or [] if r.get("bench") == bench]
 

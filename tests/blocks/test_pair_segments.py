@@ -25,6 +25,7 @@ import pytest
 
 import rockjax.blocks as rb
 from rockjax.blocks import Motion, box, make_blocks, slab
+from rockjax.types import Status
 
 from rollouts import assert_same_loads, grown_by_driver
 
@@ -238,15 +239,10 @@ def test_crossing_edges_overflow_flagged_and_grown(x64):
     assert np.all(np.asarray(wide.contact_feature)[:, L:] == -1) and not np.any(np.asarray(wide.shear)[:, L:])
 
 
-def test_support_edges_overflow_flagged_and_grown(x64):
+def _rock_pair():
     """Two random rocks (12-vertex hulls, ~30 edges each, one direction per edge: the FCP rounds
-    run) pressed together: ``make_blocks``' default ``support_edges`` (the most edge directions
-    touching a face, ``ConvexPolyhedron.support_directions``) gives the plane, points and loads of
-    rounds over every direction (0); 2 is fewer than any support set touches, which sets
-    SUPPORT_EDGE_OVERFLOW (a growable bit), and the driver's ``_grow`` doubles it (at most
-    ``max_edges``). The loads' gradients with respect to the poses agree too."""
+    run) pressed 2 cm together: ``(shapes, make_blocks keywords)``."""
     from rockjax.blocks import quat_from_axis_angle
-    from rockjax.types import Status
 
     from fcp_cases import place_at_gap, random_block
 
@@ -254,24 +250,29 @@ def test_support_edges_overflow_flagged_and_grown(x64):
     shapes = [random_block(rng, 12), random_block(rng, 12)]
     q = np.stack([[1.0, 0, 0, 0], quat_from_axis_angle((0.3, 0.2, 1), 0.7)])
     pos = np.stack([np.zeros(3), place_at_gap(shapes[0], q[0], shapes[1], q[1], (0.2, -0.1, 1.0), -0.02)])
-    kw = dict(positions=pos, orientations=q, motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6)
-    cfg, _, _ = make_blocks(shapes, **kw)
-    assert cfg.support_edges == max(p.support_directions() for p in shapes) < cfg.max_edges
+    return shapes, dict(positions=pos, orientations=q, motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6)
+
+
+def _check_fcp_buffer(field, small, bit):
+    """For the rock pair: ``make_blocks``' default of the FCP buffer ``field`` gives the plane,
+    points, loads and the loads' gradients with respect to the poses of the full buffer (0);
+    ``small`` sets the growable status ``bit``. Returns the default config."""
+    shapes, kw = _rock_pair()
     out = {}
-    for k in (0, None, 2):
-        F, T, _, status, info = _forces(shapes, support_edges=k, **kw)
+    for k in (0, None, small):
+        F, T, _, status, info = _forces(shapes, **{field: k}, **kw)
         out[k] = (np.asarray(F), np.asarray(T), int(status), np.asarray(info["normal"])[0],
                   int(np.asarray(info["active"]).sum()))
     assert out[0][2] == 0 and out[None][2] == 0
     assert out[0][4] > 0  # in contact
     np.testing.assert_array_equal(out[None][3], out[0][3])
     assert_same_loads(out[None], out[0])
-    assert out[2][2] & Status.SUPPORT_EDGE_OVERFLOW
-    assert Status.SUPPORT_EDGE_OVERFLOW & Status.growable()
+    assert out[small][2] & bit
+    assert bit & Status.growable()
     # the gathered edges carry the same derivatives (the normal's, through the winning candidate)
     grads = {}
     for k in (0, None):
-        cfg_k, par, st = make_blocks(shapes, support_edges=k, **kw)
+        cfg_k, par, st = make_blocks(shapes, **{field: k}, **kw)
 
         def load(x, q, cfg_k=cfg_k, par=par, st=st):
             F, T = rb.contact_forces(st.replace(x=x, q=q), par, cfg_k, dt=1e-4)[:2]
@@ -281,58 +282,34 @@ def test_support_edges_overflow_flagged_and_grown(x64):
     assert np.any(np.asarray(grads[0][1]) != 0)
     for a, b in zip(grads[None], grads[0]):
         np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-10, atol=1e-10 * float(np.abs(b).max()))
-    cfg2, _, _ = make_blocks(shapes, support_edges=2, **kw)
+    with pytest.raises(ValueError, match=field):
+        make_blocks(shapes, **{field: -1}, **kw)
+    return make_blocks(shapes, **kw)[0]
+
+
+def test_support_edges_overflow_flagged_and_grown(x64):
+    """Two random rocks pressed together (``_rock_pair``): ``make_blocks``' default
+    ``support_edges`` (the most edge directions touching a face,
+    ``ConvexPolyhedron.support_directions``) gives the plane, points and loads of rounds over
+    every direction (0); 2 is fewer than any support set touches, which sets
+    SUPPORT_EDGE_OVERFLOW (a growable bit), and the driver's ``_grow`` doubles it (at most
+    ``max_edges``). The loads' gradients with respect to the poses agree too."""
+    shapes, _ = _rock_pair()
+    cfg = _check_fcp_buffer("support_edges", 2, Status.SUPPORT_EDGE_OVERFLOW)
+    assert cfg.support_edges == max(p.support_directions() for p in shapes) < cfg.max_edges
+    cfg2 = dataclasses.replace(cfg, support_edges=2)
     assert grown_by_driver(cfg2, Status.SUPPORT_EDGE_OVERFLOW).support_edges == 4
     assert grown_by_driver(dataclasses.replace(cfg2, support_edges=24),
                            Status.SUPPORT_EDGE_OVERFLOW).support_edges == cfg2.max_edges
-    with pytest.raises(ValueError, match="support_edges"):
-        make_blocks(shapes, support_edges=-1, **kw)
 
 
 def test_fcp_crosses_overflow_flagged_and_grown(x64):
-    """The rocks of ``test_support_edges_overflow_flagged_and_grown`` pressed together:
-    ``make_blocks``' default ``fcp_crosses`` (fewer slots than ``support_edges^2``) gives the plane,
-    points and loads of every slot (0), and the same gradients with respect to the poses; 4 slots
+    """The rock pair: ``make_blocks``' default ``fcp_crosses`` (128, fewer slots than
+    ``support_edges^2``) gives the plane, points, loads and gradients of every slot (0); 4 slots
     are fewer than the crosses of two vertices' directions, which sets FCP_CROSS_OVERFLOW (a
     growable bit), and the driver's ``_grow`` doubles it (at most ``support_edges^2``)."""
-    from rockjax.blocks import quat_from_axis_angle
-    from rockjax.types import Status
-
-    from fcp_cases import place_at_gap, random_block
-
-    rng = np.random.default_rng(4)
-    shapes = [random_block(rng, 12), random_block(rng, 12)]
-    q = np.stack([[1.0, 0, 0, 0], quat_from_axis_angle((0.3, 0.2, 1), 0.7)])
-    pos = np.stack([np.zeros(3), place_at_gap(shapes[0], q[0], shapes[1], q[1], (0.2, -0.1, 1.0), -0.02)])
-    kw = dict(positions=pos, orientations=q, motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6)
-    cfg, _, _ = make_blocks(shapes, **kw)
+    cfg = _check_fcp_buffer("fcp_crosses", 4, Status.FCP_CROSS_OVERFLOW)
     assert 0 < cfg.fcp_crosses < cfg.support_edges ** 2
-    out = {}
-    for c in (0, None, 4):
-        F, T, _, status, info = _forces(shapes, fcp_crosses=c, **kw)
-        out[c] = (np.asarray(F), np.asarray(T), int(status), np.asarray(info["normal"])[0],
-                  int(np.asarray(info["active"]).sum()))
-    assert out[0][2] == 0 and out[None][2] == 0
-    assert out[0][4] > 0  # in contact
-    np.testing.assert_array_equal(out[None][3], out[0][3])
-    assert_same_loads(out[None], out[0])
-    assert out[4][2] & Status.FCP_CROSS_OVERFLOW
-    assert Status.FCP_CROSS_OVERFLOW & Status.growable()
-    grads = {}
-    for c in (0, None):
-        cfg_c, par, st = make_blocks(shapes, fcp_crosses=c, **kw)
-
-        def load(x, q, cfg_c=cfg_c, par=par, st=st):
-            F, T = rb.contact_forces(st.replace(x=x, q=q), par, cfg_c, dt=1e-4)[:2]
-            return F[1] @ jnp.array([0.3, -0.2, 1.0]) + T[1] @ jnp.array([1.0, 0.5, -0.4])
-
-        grads[c] = jax.jit(jax.grad(load, argnums=(0, 1)))(st.x, st.q)
-    assert np.any(np.asarray(grads[0][1]) != 0)
-    for a, b in zip(grads[None], grads[0]):
-        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-10, atol=1e-10 * float(np.abs(b).max()))
-    cfg4 = dataclasses.replace(cfg, fcp_crosses=4)
-    assert grown_by_driver(cfg4, Status.FCP_CROSS_OVERFLOW).fcp_crosses == 8
+    assert grown_by_driver(dataclasses.replace(cfg, fcp_crosses=4), Status.FCP_CROSS_OVERFLOW).fcp_crosses == 8
     assert grown_by_driver(dataclasses.replace(cfg, fcp_crosses=cfg.support_edges ** 2 - 8),
                            Status.FCP_CROSS_OVERFLOW).fcp_crosses == cfg.support_edges ** 2
-    with pytest.raises(ValueError, match="fcp_crosses"):
-        make_blocks(shapes, fcp_crosses=-1, **kw)
