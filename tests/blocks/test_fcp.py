@@ -272,7 +272,8 @@ def test_support_edges_find_the_same_plane(seed, x64):
     xj = place_at_gap(pi, qi, pj, qj, rng.normal(size=3), target)
     k = max(pi.support_directions(), pj.support_directions())
     assert k < pi.n_edges  # the gathering is exercised
-    c = make_blocks([pi, pj], positions=np.stack([np.zeros(3), xj]), motion=[Motion.FIXED, Motion.DYNAMIC])[0].fcp_crosses
+    cfg, _, _ = make_blocks([pi, pj], positions=np.stack([np.zeros(3), xj]), motion=[Motion.FIXED, Motion.DYNAMIC])
+    c = cfg.fcp_crosses
     assert 0 < c < k * k  # the enumeration is exercised
     n_prev = rng.normal(size=3)
     n_prev /= np.linalg.norm(n_prev)

@@ -503,7 +503,8 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
             return jnp.zeros(active_all.shape + a.shape[2:], a.dtype).at[rows, slot].set(a, mode="drop")
 
         out = dict(normal=n, gap=fcp["gap"], fcp_changes=fcp["changes"],
-                   support_overflow=fcp["support_overflow"] & mask, cross_overflow=fcp["cross_overflow"] & mask, points=pts_all, depth=depth_all,
+                   support_overflow=fcp["support_overflow"] & mask, cross_overflow=fcp["cross_overflow"] & mask,
+                   points=pts_all, depth=depth_all,
                    active=active_all, feature=feature_all, n_points=n_points, edge_overflow=edge_overflow,
                    normal_force=per_slot(fn), tangential_force=per_slot(ft_c), shear=u_new, contact_feature=feature,
                    Fj=jnp.sum(F, 1), Tj=jnp.sum(jnp.cross(rj, F), 1), Ti=-jnp.sum(jnp.cross(ri, F), 1))
