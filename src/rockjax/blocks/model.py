@@ -108,8 +108,8 @@ class BlockConfig:
         touching each (``ConvexPolyhedron.support_directions``; averages over those rocks 14.4 x
         6.8 and 11.7 x 11.7, maxima 19 x 9 and 15 x 15). A round with more sets
         ``Status.FCP_CROSS_OVERFLOW``, which the driver cures by doubling it. 0, or >=
-        ``support_edges^2``: every slot. 128 instead of 361: 1.26x on the 100-rock pile (1.19-1.34x
-        in three A/Bs); on a 10-rock pile (one or two evaluated pairs a step) 128 instead of 256:
+        ``support_edges^2``: every slot. 128 instead of 361: 1.26x on the 100-rock pile (1.34x in
+        an earlier A/B); on a 10-rock pile (one or two evaluated pairs a step) 128 instead of 256:
         0.92x (best of three, medians equal) (``bench_blocks.py --ab-fcp-crosses``, RESULTS.md).
       inside_tolerance: relative (to the block's bounding radius) tolerance of the
         point-in-block test that decides which vertices / crossings are contact points.
