@@ -139,14 +139,20 @@ def _support_edges(e, m, k: int):
     return jnp.take(e, idx, axis=1, mode="fill", fill_value=0), idx < n, over
 
 
+def _cross(a, b):
+    """Cross products of the edge vectors ``a`` and ``b`` (each three broadcastable component
+    arrays) and whether each is valid, i.e. the edges are not parallel: ``(cross [3,...], ok [...])``."""
+    (a0, a1, a2), (b0, b1, b2) = a, b
+    cr = jnp.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+    ref = (a0 * a0 + a1 * a1 + a2 * a2) * (b0 * b0 + b1 * b1 + b2 * b2)
+    return cr, cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2] > 1e-10 * ref
+
+
 def _crosses(ea, ma, eb, mb):
     """Every cross product of an edge vector of ``ea`` [3,Ka] and one of ``eb`` [3,Kb], flattened
     [3, Ka Kb] (a-major), and which are valid: both edges in their masks and not parallel."""
-    (a0, a1, a2), (b0, b1, b2) = (c[:, None] for c in ea), (c[None, :] for c in eb)
-    cr = jnp.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0]).reshape(3, -1)
-    ref = ((a0 * a0 + a1 * a1 + a2 * a2) * (b0 * b0 + b1 * b1 + b2 * b2)).reshape(-1)
-    s = cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]
-    return cr, (ma[:, None] & mb[None, :]).reshape(-1) & (s > 1e-10 * ref)
+    cr, ok = _cross(tuple(c[:, None] for c in ea), tuple(c[None, :] for c in eb))
+    return cr.reshape(3, -1), (ma[:, None] & mb[None, :] & ok).reshape(-1)
 
 
 def _crosses_first(ea, na, eb, nb, cap: int):
@@ -160,11 +166,8 @@ def _crosses_first(ea, na, eb, nb, cap: int):
     nb_ = jnp.maximum(nb, 1).astype(jnp.int32)
     inside = t < na * nb
     a, b = jnp.where(inside, t // nb_, 0), jnp.where(inside, t % nb_, 0)
-    (a0, a1, a2), (b0, b1, b2) = jnp.take(ea, a, axis=1), jnp.take(eb, b, axis=1)
-    cr = jnp.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-    ref = (a0 * a0 + a1 * a1 + a2 * a2) * (b0 * b0 + b1 * b1 + b2 * b2)
-    s = cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]
-    return cr, inside & (s > 1e-10 * ref), na * nb > cap
+    cr, ok = _cross(jnp.take(ea, a, axis=1), jnp.take(eb, b, axis=1))
+    return cr, inside & ok, na * nb > cap
 
 
 def _local_candidates(n, Xi, mi, Nti, fmi, di, Xj, mj, Ntj, fmj, dj, scale, support_edges: int = 0,
