@@ -397,4 +397,4 @@ def write(name: str, cells, *, slow: bool = False):
 if __name__ == "__main__":
     write("quickstart.ipynb", QUICKSTART)
     write("calibration.ipynb", CALIBRATION, slow=True)  # measured 9 min on a loaded 2-core machine: slow set
-    write("ensembles.ipynb", ENSEMBLES)
+    write("ensembles.ipynb", ENSEMBLES, slow=True)  # measured 112 s in the tests (2026-11-27): slow set

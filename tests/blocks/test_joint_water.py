@@ -24,6 +24,9 @@ from rollouts import assert_same_loads, grown_by_driver, incline_scene, run
 RHO, G = 1000.0, 9.81
 GRAV = (0.0, 0.0, -G)
 
+#: ``contact_forces`` compiled once per config (op by op, each call took 10-30 s on 2 cores)
+_contact_forces = jax.jit(contact_forces, static_argnums=2, static_argnames=("dt", "return_info"))
+
 
 def _load(points, active, n, level):
     n = jnp.asarray(n, jnp.float64)
@@ -134,14 +137,14 @@ def test_overlap_patch_of_two_boxes(x64):
     shapes = [box(0.3, 0.3, 0.3), box(0.2, 0.2, 0.2)]
     level, A, centre = 1.0, 0.15 * 0.1, np.array([0.075, 0.1, 0.3])
     cfg, par, st = make_blocks(shapes, joint_water=True, joint_water_level=level, **kw)
-    F, T, _, status, info = contact_forces(st, par, cfg, dt=1e-4, gravity=GRAV, return_info=True)
+    F, T, _, status, info = _contact_forces(st, par, cfg, dt=1e-4, gravity=GRAV, return_info=True)
     assert int(status) == 0
     expect = RHO * G * (level - 0.3) * A
     Fw = np.asarray(info["joint_water_force"])[np.asarray(info["pair_mask"])]
     rel = 1e-5 / (level - 0.3)
     np.testing.assert_allclose(np.abs(Fw.sum(0)), [0.0, 0.0, expect], rtol=rel, atol=1e-9)
     cfg0, par0, st0 = make_blocks(shapes, **kw)
-    F0, T0, _, _, info0 = contact_forces(st0, par0, cfg0, dt=1e-4, return_info=True)
+    F0, T0, _, _, info0 = _contact_forces(st0, par0, cfg0, dt=1e-4, return_info=True)
     assert "joint_water_force" not in info0
     np.testing.assert_allclose(np.asarray(F[1] - F0[1]), [0, 0, expect], rtol=rel, atol=1e-6)
     np.testing.assert_allclose(np.asarray(F[0] - F0[0]), [0, 0, -expect], rtol=rel, atol=1e-6)
@@ -197,8 +200,9 @@ def test_grad_of_joint_load_matches_finite_differences(x64):
         return jnp.sum(info["joint_water_force"][:, 1]) + 3.0 * T[1, 0] + 2.0 * T[1, 2]
 
     lv, z = jnp.asarray(0.05), jnp.asarray(0.0)
+    g = jax.jit(jax.grad(load, argnums=(0, 1)))(lv, z)
+    load = jax.jit(load)
     assert abs(float(load(lv, z))) > 1.0
-    g = jax.grad(load, argnums=(0, 1))(lv, z)
     eps = 1e-6
     fd = [(load(lv + eps, z) - load(lv - eps, z)) / (2 * eps), (load(lv, z + eps) - load(lv, z - eps)) / (2 * eps)]
     np.testing.assert_allclose(np.asarray(g), np.asarray(fd), rtol=1e-5)
@@ -218,7 +222,7 @@ def test_patch_points_gathered_and_overflow_flagged(x64):
     out = {}
     for k in (200, 8, 3):
         cfg, par, st = make_blocks(shapes, joint_patch_points=k, **kw)
-        F, T, _, status, info = contact_forces(st, par, cfg, dt=1e-4, gravity=GRAV, return_info=True)
+        F, T, _, status, info = _contact_forces(st, par, cfg, dt=1e-4, gravity=GRAV, return_info=True)
         out[k] = (np.asarray(F), np.asarray(T), int(status), int(np.asarray(info["active"]).sum()))
     assert out[200][2] == 0 and out[8][2] == 0
     assert 3 < out[200][3] <= 8  # the patch's active points fit in 8 slots, not in 3

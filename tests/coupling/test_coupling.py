@@ -203,6 +203,7 @@ def test_body_pair_list_is_the_block_part_of_the_wall_list():
     assert int(status) & rj.Status.BODY_PAIR_OVERFLOW and int(short.body_count) == m
 
 
+@pytest.mark.slow  # four coupled rollouts' compiles (~100-160 s on 2 cores); regrowing in general: test_driver_io_cli
 def test_driver_grows_the_body_pair_list():
     """A boundary-particle scene started with a body-pair sub-list far too short: the driver grows
     it on ``BODY_PAIR_OVERFLOW`` and reruns, and the block moves exactly as with an ample one."""

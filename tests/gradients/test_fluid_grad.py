@@ -20,7 +20,8 @@ the bound is 1e-10 (vmapped reductions may sum in another order).
 Checkpointing changes what is stored, not what is computed: the gradient with 1, 2 or 3
 checkpoint levels (``make_rollout(checkpoint_levels=...)``; the finite-difference tests above check
 the default, 2) agree to round-off (5 blocks in chunks of 2, 2 and a tail of 1, so every level and
-the tail are exercised).
+the tail are exercised). That check and the forward-mode one (``jax.jvp`` through the rollout)
+are in the slow suite: ~240 s and ~95 s of tracing and compiles on 2 cores.
 """
 
 from __future__ import annotations
@@ -87,6 +88,7 @@ def _grad_c0_alpha(scene, **kw):
     return np.array([float(get_leaf(g, "fluid.c0")), float(get_leaf(g, "fluid.alpha"))])
 
 
+@pytest.mark.slow  # three checkpointed-rollout gradients (~240 s of tracing and compiles on 2 cores)
 def test_checkpoint_levels_give_the_same_gradient(dam):
     scene = dam["scene"]
     n_steps = 5 * scene.config.rebuild_every
@@ -102,6 +104,7 @@ def test_checkpoint_levels_give_the_same_gradient(dam):
         observed(scene, scene.params, n_steps, None, checkpoint_levels=4)
 
 
+@pytest.mark.slow  # a gradient and a jvp of the rollout (~95 s of compiles on 2 cores)
 def test_forward_mode_matches_reverse_mode(dam):
     # jax.jvp goes through the checkpointed rollout too: the directional derivative along
     # (dc0, dalpha) equals grad . (dc0, dalpha)

@@ -22,6 +22,7 @@ JAX's VJP of each pair function.
 
 And through a whole checkpointed rollout (``gradcases.tiny_dam_break``, 96 steps, 12 rebuilds):
 the gradient of ``test_fluid_grad``'s loss agrees to round-off (measured <= 2e-15).
+The ``wedge`` case and the rollout are in the slow suite (~140 s and ~110 s of compiles on 2 cores).
 
 Each state is the scene's lattice with the water moved by up to 0.15 dx, random velocities and
 densities, then primed (list rebuilt), so every pair term is live. Also: ``jax.vmap`` of the
@@ -94,15 +95,21 @@ def _perturbed(scene, config, seed=0):
     return state
 
 
-@pytest.fixture(scope="module")
-def warm(x64):
-    """Per case: the config, a perturbed state and the parameters."""
-    out = {}
-    for name, case in CASES.items():
+class _Warm(dict):
+    """Per case, built on first use (the slow ``wedge`` case's scene only when it runs): the
+    config, a perturbed state and the parameters."""
+
+    def __missing__(self, name):
+        case = CASES[name]
         scene = _scene(case)
         config = scene.config.replace(row_tile=case["row_tile"])
-        out[name] = (config, _perturbed(scene, config), scene.params)
-    return out
+        self[name] = (config, _perturbed(scene, config), scene.params)
+        return self[name]
+
+
+@pytest.fixture(scope="module")
+def warm(x64):
+    return _Warm()
 
 
 def _grad(config, state, params, adjoint):
@@ -110,7 +117,11 @@ def _grad(config, state, params, adjoint):
     return jax.jit(jax.grad(lambda s, p: _outcome(advance(s, p, c)), argnums=(0, 1), allow_int=True))(state, params)
 
 
-@pytest.mark.parametrize("name", list(CASES))
+#: the coupled case compiles two gradients of a wedge step (~140 s on 2 cores): in the slow suite
+SLOW_CASES = {"wedge"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW_CASES else n for n in CASES])
 def test_pair_sum_adjoint_equals_autodiff(warm, name, monkeypatch):
     config, state, params = warm[name]
     if CASES[name]["row_tile"]:
@@ -186,6 +197,7 @@ def test_vmap_of_pair_sum_gradient_equals_per_member(warm):
             np.testing.assert_allclose(np.asarray(b[m]), np.asarray(a), rtol=1e-10, atol=1e-12 * float(np.max(np.abs(a))))
 
 
+@pytest.mark.slow  # two checkpointed-rollout gradients (~110 s of compiles on 2 cores)
 def test_rollout_gradient_equals_autodiff(x64):
     # through the checkpointed rollout (96 steps, 12 list rebuilds with the particles re-sorted,
     # displacement-triggered rebuilds under lax.cond): tests/gradients/test_fluid_grad.py's loss
