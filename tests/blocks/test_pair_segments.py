@@ -287,6 +287,7 @@ def _check_fcp_buffer(field, small, bit):
     return make_blocks(shapes, **kw)[0]
 
 
+@pytest.mark.slow  # five compiles (~95 s on 2 cores); the same checks on fcp_crosses stay in the default suite
 def test_support_edges_overflow_flagged_and_grown(x64):
     """Two random rocks pressed together (``_rock_pair``): ``make_blocks``' default
     ``support_edges`` (the most edge directions touching a face,
