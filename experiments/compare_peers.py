@@ -57,7 +57,7 @@ PEER_VENV = os.environ.get("PEER_VENV", os.path.expanduser("~/.cache/peer-venv")
 DEFAULT_PEER_RESULTS = os.path.join(ROOT, "experiments", "results", "peers_2026-11-24.jsonl")
 
 G = 9.81
-NX = {"5k": 14, "20k": 22, "80k": 34, "160k": 43, "300k": 53}  # 2 nx^3 fluid particles (160k, 300k: scaling only)
+NX = {"5k": 14, "20k": 22, "80k": 34, "160k": 43, "300k": 53, "1M": 79}  # 2 nx^3 fluid particles (160k-1M: scaling only)
 #: the peers' measured window (steps after 10 warm-up steps) per size, shared/peers/run_peers.sh
 PEER_STEPS = {"5k": 300, "20k": 150, "80k": 60}
 C0 = 10.0 * math.sqrt(2 * G * 1.0)
@@ -153,7 +153,18 @@ def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None,
             "sim_s_per_wall_s": round(steps * config.dt / wall, 6),
             "compile_s": round(compile_s, 2), "setup_s": round(setup_s, 2), "reps": reps,
             "foreign_cpu": foreign, "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
-            "jax": jax.__version__, "backend": jax.default_backend(), "source": "measured"}
+            "jax": jax.__version__, "backend": jax.default_backend(), "source": "measured",
+            **_device_memory(jax)}
+
+
+def _device_memory(jax) -> dict:
+    """The accelerator's name and its allocator's peak bytes in use (empty on the CPU backend)."""
+    dev = jax.devices()[0]
+    if dev.platform == "cpu":
+        return {}
+    stats = dev.memory_stats() or {}
+    return {"device_kind": dev.device_kind,
+            "peak_device_mb": round(stats.get("peak_bytes_in_use", 0) / 2**20, 1) or None}
 
 
 def _peer_derived(rec: dict) -> dict:
