@@ -118,3 +118,14 @@ def test_default_row_tile_depends_on_list_size():
     big = c.replace(n_fluid=2**20 // c.neighbour_capacity + 1)
     assert big.effective_row_tile == 512
     assert c.replace(row_tile=0).effective_row_tile == 0 and c.replace(row_tile=64).effective_row_tile == 64
+
+
+def test_default_row_tile_is_one_block_on_accelerators(monkeypatch):
+    """On a GPU the row blocks are a sequential scan: the default there is one block, and with it
+    the ``AUTODIFF`` adjoint (an explicit ``row_tile`` still wins)."""
+    sc = rj.scenes.dam_break(dx=0.5 / 5, column_height=0.5, tank_length=1.0, tank_width=0.5, column_width=0.4)
+    big = sc.config.replace(n_fluid=2**20 // sc.config.neighbour_capacity + 1)
+    assert big.effective_row_tile == 512 and big.effective_adjoint == rj.Adjoint.PAIR_SUMS  # here: the CPU
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    assert big.effective_row_tile == 0 and big.effective_adjoint == rj.Adjoint.AUTODIFF
+    assert big.replace(row_tile=512).effective_row_tile == 512
