@@ -131,7 +131,7 @@ def _add_run(sub) -> None:
     p.add_argument("--scheme", choices=["wcsph", "seed"], default=None, help="SPH scheme (default wcsph)")
     p.add_argument("--out", default=None, help="HDF5 output file (default: the file's [output] out, else none)")
     p.add_argument("--frame-dt", type=float, default=None, help="output interval in seconds")
-    p.add_argument("--coupling", choices=["penalty", "boundary_particles"], default=None,
+    p.add_argument("--coupling", choices=["penalty", "boundary_particles", "boundary_integral"], default=None,
                    help="fluid-block coupling (scenes with blocks)")
     p.add_argument("--dry-run", action="store_true",
                    help="print counts, dt, steps, stages and a memory estimate (JSON) without running")

@@ -125,7 +125,7 @@ def _fluid_load(state: State, params: Params, config: Config, *, kick: bool) -> 
         state = state.replace(coupling=boundary_particles.load(state.particles, state.nbrs, state.blocks, params,
                                                                config))
         return _guard(state, params, config, kick=kick)
-    if config.coupling == Coupling.PENALTY:
+    if config.coupling in (Coupling.PENALTY, Coupling.BOUNDARY_INTEGRAL):  # the wall term: penalty.accelerations
         from .coupling import penalty
 
         if kick:

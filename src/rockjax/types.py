@@ -111,6 +111,10 @@ class Coupling(enum.Enum):
     NONE = "none"  #: no exchange (or no blocks / no water)
     PENALTY = "penalty"  #: seed Eq 22 repulsion on fluid particles near block faces, reaction on the block
     BOUNDARY_PARTICLES = "boundary_particles"  #: particles on block faces take part in the SPH sums
+    #: semi-analytical wall for block faces (WCSPH): each fluid particle within 2h of a face gets the
+    #: pressure force of the kernel support the block cuts off, the block the reaction; the seed
+    #: Eq 22 penalty within dx/4 keeps water out (``coupling.penalty``)
+    BOUNDARY_INTEGRAL = "boundary_integral"
 
 
 class Kind(enum.IntEnum):
@@ -325,6 +329,9 @@ class Config:
             raise ValueError(f"Config.dt must be a positive finite time step in seconds (got {self.dt})")
         if self.coupling != Coupling.NONE and (self.blocks is None or self.n_fluid == 0):
             raise ValueError("Config.coupling needs both water (n_fluid > 0) and blocks; set Coupling.NONE")
+        if self.coupling == Coupling.BOUNDARY_INTEGRAL and self.scheme != Scheme.WCSPH:
+            raise ValueError("Config.coupling BOUNDARY_INTEGRAL needs scheme WCSPH (its wall term is written for "
+                             "one kernel and the continuity equation); use PENALTY or BOUNDARY_PARTICLES")
         if not self.has_particles:
             return
         if self.grid is None:

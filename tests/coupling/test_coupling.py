@@ -1,6 +1,7 @@
 """Fluid-block coupling: Newton's third law, no particle inside a block, a dropped block.
 
-Both coupling methods (seed Eq 22 penalty; boundary particles carried by the block) are checked.
+The coupling methods (seed Eq 22 penalty; boundary particles carried by the block; the
+semi-analytical wall term of ``Coupling.BOUNDARY_INTEGRAL``) are checked.
 Scenes are tiny (dx = 2.5 cm, < 1000 water particles) so the default suite stays short.
 """
 
@@ -29,7 +30,7 @@ def _submerged(coupling):
     return scene, state
 
 
-@pytest.mark.parametrize("coupling", [Coupling.PENALTY, Coupling.BOUNDARY_PARTICLES])
+@pytest.mark.parametrize("coupling", [Coupling.PENALTY, Coupling.BOUNDARY_PARTICLES, Coupling.BOUNDARY_INTEGRAL])
 def test_newton_third_law(coupling):
     """The load on the block equals minus the sum of the forces on the fluid, and likewise the
     torque about the block's centroid (to float32 round-off of the sums)."""
@@ -38,7 +39,7 @@ def test_newton_third_law(coupling):
     P, B = state.particles, state.blocks
     nf = config.n_fluid
     m = params.fluid.rho0 * P.vol[:nf]
-    if coupling == Coupling.PENALTY:
+    if coupling != Coupling.BOUNDARY_PARTICLES:  # the penalty (and with BOUNDARY_INTEGRAL the wall term)
         acc, r, idx = penalty.accelerations(P, B, params, config)
         a = jnp.sum(acc, axis=1)
     else:

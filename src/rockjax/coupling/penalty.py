@@ -14,6 +14,12 @@ resolution. Two choices the paper leaves open, made here:
   and in front of a face, a lower bound near edges and corners), and ``n`` is that face's normal;
 * the force never pulls: ``max(K_S d - K_D v_n, 0)`` (a receding particle is not held back).
 
+With ``Coupling.BOUNDARY_INTEGRAL`` the same function adds a semi-analytical wall term (``wall_term``,
+``wall_density_rate``): each fluid particle within 2h of a block's nearest face gets the pressure
+force and density rate of the kernel support the block cuts off (Kulasegaram et al. 2004, Ferrand
+et al. 2013), so the block carries the water's pressure instead of a spring's; the penalty then only
+guards (``r0 = dx / 4``, ``scenes.coupled.coupling_params``).
+
 The block gets the equal and opposite force and its torque about the centroid, so the momentum
 exchanged is exactly zero (the test checks it to round-off). Only blocks that move (dynamic or
 prescribed) couple; fixed geometry is met by the fluid as wall particles (with boundary particles
@@ -25,9 +31,10 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from ..blocks.rotation import quat_matrix
-from ..types import Config, CouplingState, Kind, Params, Particles
+from ..sph.kernels import plane_integrals
+from ..types import Config, Coupling, CouplingState, Kind, Params, Particles
 
-__all__ = ["accelerations", "apply", "load", "coupled_blocks", "fixed_blocks", "guard_fixed"]
+__all__ = ["accelerations", "apply", "load", "coupled_blocks", "fixed_blocks", "guard_fixed", "wall_term"]
 
 
 def _is_fixed(motion) -> bool:
@@ -53,6 +60,12 @@ def _min_image(r, config: Config):
 
 
 def accelerations(P: Particles, blocks, params: Params, config: Config):
+    """``(acc, r, idx)`` of ``_exchange``: the penalty (and wall-term) accelerations, lever arms and
+    coupled block indices."""
+    return _exchange(P, blocks, params, config)[:3]
+
+
+def _exchange(P: Particles, blocks, params: Params, config: Config):
     """Penalty accelerations of the fluid and the per-pair data for the block reaction.
 
     Args:
@@ -60,7 +73,9 @@ def accelerations(P: Particles, blocks, params: Params, config: Config):
 
     Returns:
         ``acc`` [n_fluid, Bc, 3] m/s^2, acceleration of fluid particle i due to coupled block b;
-        ``r`` [n_fluid, Bc, 3] m, the lever arm x_i - X_b; ``idx`` the coupled block indices.
+        ``r`` [n_fluid, Bc, 3] m, the lever arm x_i - X_b; ``idx`` the coupled block indices;
+        ``drho`` [n_fluid] kg/m^3/s, with ``Coupling.BOUNDARY_INTEGRAL`` the density rate the
+        continuity sum misses behind the nearest faces (``wall_density_rate``), else None.
 
     Per block, the nearest face is found by a static loop over the faces on [n_fluid] arrays
     (signed distance and face index), then its world normal is gathered from an [F, 3] table.
@@ -77,6 +92,7 @@ def accelerations(P: Particles, blocks, params: Params, config: Config):
     R_all = quat_matrix(blocks.q[jnp.asarray(idx, jnp.int32)])  # [Bc, 3, 3]
     n_faces = blocks.shape.face_normal.shape[1]
     acc, lever = [], []
+    drho = jnp.zeros((nf,), x.dtype) if config.coupling == Coupling.BOUNDARY_INTEGRAL else None
     for k, b in enumerate(idx):
         r = _min_image(x - blocks.x[b], config)  # [nf, 3]
         normals = blocks.shape.face_normal[b] @ R_all[k].T  # [F, 3] world frame
@@ -94,9 +110,50 @@ def accelerations(P: Particles, blocks, params: Params, config: Config):
         d = cp.interaction_distance - s
         mag = cp.penalty_stiffness * d - cp.penalty_damping * vn
         mag = jnp.where(fluid & (d > 0), jnp.maximum(mag, 0.0), 0.0)
-        acc.append(mag[:, None] * n)
+        a = mag[:, None] * n
+        if drho is not None:
+            a = a + jnp.where(fluid[:, None], wall_term(P, s, n, params, config), 0.0)
+            drho = drho + jnp.where(fluid, wall_density_rate(P, s, vn, params, config), 0.0)
+        acc.append(a)
         lever.append(r)
-    return jnp.stack(acc, axis=1), jnp.stack(lever, axis=1), idx
+    return jnp.stack(acc, axis=1), jnp.stack(lever, axis=1), idx, drho
+
+
+def wall_term(P: Particles, s, n, params: Params, config: Config):
+    """``Coupling.BOUNDARY_INTEGRAL``: what a fluid particle's WCSPH momentum sum misses where the
+    block cuts its kernel support [n_fluid, 3] m/s^2 (semi-analytical wall: Kulasegaram et al. 2004,
+    Ferrand et al. 2013; here for the nearest face's half space).
+
+    With ``s`` [n_fluid] the distance to the nearest face (clamped to >= 0) and ``n`` [n_fluid, 3] its
+    outward normal, the missing part of ``-sum_j V_j (p_i + p_j) grad W_ij / rho_i`` over the half
+    space behind the face, the pressure there continued hydrostatically from the particle
+    (``p = p_w + rho_i g.(y - x_w)``, ``p_w = p_i - rho_i s (g . n)`` at the face), is
+
+        a_i = (p_i + p_w) / rho_i A(s) n - g G(s),
+
+    ``A`` the kernel's integral over the face plane and ``G`` its volume fraction behind it
+    (``sph.kernels.plane_integrals``). Summed over a still water column, the reactions give the
+    block exactly ``p_w`` per unit face area (the ``g G`` part cancels the ``rho g s`` excess of
+    ``p_i``), so the draft of a floating block does not depend on where the first water layer
+    sits. The continuity equation's missing part is ``wall_density_rate``. Not included: the
+    block's acceleration in the continued pressure, and the second face near edges and corners.
+    """
+    nf = config.n_fluid
+    area, beyond = plane_integrals(config.kernel)(jnp.maximum(s, 0.0), params.fluid.h)
+    p, rho = P.p[:nf], P.rho[:nf]
+    g = params.gravity.astype(n.dtype)
+    gn = n[:, 0] * g[0] + n[:, 1] * g[1] + n[:, 2] * g[2]
+    p_w = p - rho * jnp.maximum(s, 0.0) * gn
+    return ((p + p_w) / rho * area)[:, None] * n - beyond[:, None] * g
+
+
+def wall_density_rate(P: Particles, s, vn, params: Params, config: Config):
+    """``Coupling.BOUNDARY_INTEGRAL``: the part of the continuity sum ``rho_i sum_j V_j (v_i - v_j) .
+    grad W_ij`` behind the nearest face, the block's surface velocity standing for the missing
+    neighbours' [n_fluid] kg/m^3/s: ``-rho_i A(s) v_n`` (``v_n`` the particle's normal velocity
+    relative to the surface, negative while approaching: water a face moves into is compressed)."""
+    area, _ = plane_integrals(config.kernel)(jnp.maximum(s, 0.0), params.fluid.h)
+    return -P.rho[: config.n_fluid] * area * vn
 
 
 def _reaction(P: Particles, acc, r, idx, params: Params, config: Config, n_blocks: int) -> CouplingState:
@@ -159,8 +216,10 @@ def apply(P: Particles, blocks, params: Params, config: Config):
     This is a separate kick after the fluid's kick-drift-kick (operator splitting), so the
     fluid's stored acceleration ``P.a`` stays the SPH one.
     """
-    acc, r, idx = accelerations(P, blocks, params, config)
+    acc, r, idx, drho = _exchange(P, blocks, params, config)
     a = jnp.sum(acc, axis=1)
     nf = config.n_fluid
-    v = P.v.at[:nf].add(config.dt * a)
-    return P.replace(v=v), _reaction(P, acc, r, idx, params, config, blocks.x.shape[0])
+    out = P.replace(v=P.v.at[:nf].add(config.dt * a))
+    if drho is not None:  # the next step's continuity pass starts from this density
+        out = out.replace(rho=P.rho.at[:nf].add(config.dt * drho))
+    return out, _reaction(P, acc, r, idx, params, config, blocks.x.shape[0])

@@ -39,14 +39,15 @@ def coupling_params(*, dx: float, c0: float, stiffness: float | None = None, dam
     Defaults: ``r0 = dx / 2`` (half the particle spacing: a particle at rest against a face then
     fills the space up to it, as a lattice particle of volume dx^3 would, so the displaced volume
     -- hence buoyancy -- is unbiased); with ``Coupling.BOUNDARY_PARTICLES``, where the penalty is
-    only a guard (``Config.coupling_guard``), ``r0 = dx / 4``: water at rest stays ~dx/2 from a
+    only a guard (``Config.coupling_guard``), and with ``Coupling.BOUNDARY_INTEGRAL``, where the wall
+    term carries the pressure, ``r0 = dx / 4``: water at rest stays ~dx/2 from a
     face (a spacing from the block's outer particle layer, dx/2 deep), so the guard acts only on
     water pressed closer; ``K_S = (2 c0 / dx)^2`` [1/s^2], so a particle arriving
     at the flow's largest speed (~c0 / 10) stops within ~r0 / 10 and the penalty oscillation
     ``sqrt(K_S) dt`` stays ~0.65 at the fluid's Courant step; ``K_D = sqrt(K_S)`` [1/s] (half of
     critical damping).
     """
-    r0_default = 0.25 * dx if coupling == Coupling.BOUNDARY_PARTICLES else 0.5 * dx
+    r0_default = 0.5 * dx if coupling == Coupling.PENALTY else 0.25 * dx  # the others: a guard
     r0 = r0_default if interaction_distance is None else _positive("interaction_distance", interaction_distance)
     ks = (2.0 * c0 / dx) ** 2 if stiffness is None else _positive("penalty stiffness", stiffness)
     kd = math.sqrt(ks) if damping is None else float(damping)

@@ -32,6 +32,7 @@ __all__ = [
     "viscosity_kernel",
     "viscosity_laplacian",
     "kernel_pair",
+    "plane_integrals",
 ]
 
 #: support radius / smoothing length for every kernel here
@@ -122,3 +123,37 @@ def kernel_pair(kind: KernelKind):
     if kind == KernelKind.CUBIC_SPLINE:
         return cubic_spline, cubic_spline_f
     raise ValueError(f"unknown kernel {kind!r}")
+
+
+def _wendland_c2_plane(s, h):
+    u = jnp.clip(s / h, 0.0, SUPPORT_FACTOR)
+    t = SUPPORT_FACTOR - u
+    area = 3.0 / 256.0 * t**5 * (4.0 * u**2 + 5.0 * u + 2.0) / h
+    beyond = t**6 * (3.0 * u**2 + 6.0 * u + 4.0) / 512.0
+    return area, beyond
+
+
+def _cubic_spline_plane(s, h):
+    u = jnp.clip(s / h, 0.0, SUPPORT_FACTOR)
+    t = SUPPORT_FACTOR - u
+    area = jnp.where(u < 1.0, 0.7 - u**2 + 0.75 * u**4 - 0.3 * u**5, t**4 * (2.0 * u + 1.0) / 20.0) / h
+    beyond = jnp.where(u < 1.0, 0.5 - 0.7 * u + u**3 / 3.0 - 0.15 * u**5 + u**6 / 20.0, t**5 * (u + 1.0) / 60.0)
+    return area, beyond
+
+
+def plane_integrals(kind: KernelKind):
+    """``(A, G)`` of a plane at distance ``s`` [m] >= 0 from a kernel's centre (clamped to [0, 2h]):
+
+    * ``A(s, h) = int_plane W dA`` [1/m], the kernel's marginal across the plane; the gradient of
+      the kernel volume beyond the plane, ``int_beyond grad_x W(x - y) dy = -A n`` (``n`` the plane's
+      normal towards the centre), is what a particle misses of a pressure-gradient sum there;
+    * ``G(s, h) = int_beyond W dy`` [-], the kernel's volume fraction beyond the plane (1/2 at s = 0,
+      0 from s = 2h); ``int_0^inf G ds = int_0^inf s A ds`` (both ``5 h / 24`` for Wendland C2).
+
+    Closed forms (integrals of the 3D kernels above over the plane and the half space).
+    """
+    if kind == KernelKind.WENDLAND_C2:
+        return _wendland_c2_plane
+    if kind == KernelKind.CUBIC_SPLINE:
+        return _cubic_spline_plane
+    raise ValueError(f"no plane integrals for kernel {kind}")
