@@ -866,6 +866,14 @@ def sec_flags(doc: Doc):
     doc.p(table(["case", "round", "XLA defaults", "YNN fusions off", "ratio", "date"], rows))
 
 
+def _sourced(doc: Doc, name: str) -> list[dict]:
+    """The records of results file ``name`` with its source line, or [] (no note) if it is absent."""
+    if not doc.path(name):
+        return []
+    doc.src(name)
+    return load(doc.path(name))
+
+
 def sec_gpu(doc: Doc):
     doc.h("On a GPU (lent device machine): throughput, gradients, coupled split")
     envs = sorted(glob.glob(os.path.join(doc.results, "gpu_*_env.txt")))
@@ -881,9 +889,8 @@ def sec_gpu(doc: Doc):
               "`git log` there can lag the working tree it ran). One run each, no other load on the GPU; the "
               "CPU figures beside them are this repository's 2-core records (other files, other days): ratios "
               "across machines, not a benchmark of the same code path on both.")
-        recs = doc.path(f"{stem}_scaling.jsonl") and load(doc.path(f"{stem}_scaling.jsonl"))
+        recs = _sourced(doc, f"{stem}_scaling.jsonl")
         if recs:
-            doc.src(f"{stem}_scaling.jsonl")
             cpu = {}
             if doc.path("sph_scaling.jsonl"):
                 cpu = {(r.get("scheme"), r.get("size")): r for r in load(doc.path("sph_scaling.jsonl"))
@@ -897,9 +904,8 @@ def sec_gpu(doc: Doc):
                   "particle-steps/s in `sph_scaling.jsonl` (2 cores).")
             doc.p(table(["scheme", "size", "n_fluid", "n_wall", "dtype", "steps", "ms/step", "fluid p-steps/s",
                          "peak device MiB", "compile s", "vs CPU"], rows))
-        recs = doc.path(f"{stem}_sph.jsonl") and load(doc.path(f"{stem}_sph.jsonl"))
+        recs = _sourced(doc, f"{stem}_sph.jsonl")
         if recs:
-            doc.src(f"{stem}_sph.jsonl")
             doc.p("Where a step's time goes (`bench_sph.py --sizes 80k`): one list build, one step with a given "
                   "list, and a whole chunk per step. The WCSPH step ran its pair sums in blocks of 512 rows (the "
                   "CPU default then; a sequential scan on the GPU), the seed step in one block.")
@@ -908,10 +914,9 @@ def sec_gpu(doc: Doc):
             doc.p(table(["scheme", "density diffusion", "n_fluid", "row tile", "build ms", "step ms", "chunk ms/step",
                          "fluid p-steps/s"], rows))
         for kind in ("grad", "adjoint"):
-            recs = doc.path(f"{stem}_{kind}.jsonl") and load(doc.path(f"{stem}_{kind}.jsonl"))
+            recs = _sourced(doc, f"{stem}_{kind}.jsonl")
             if not recs:
                 continue
-            doc.src(f"{stem}_{kind}.jsonl")
             g = [r for r in recs if r.get("bench") in ("grad", "adjoint_ab")]
             rows = [[r["n_fluid"], r["dtype"], r["steps"], r.get("row_tile", "512 (default)"), r["adjoint"],
                      r.get("pullbacks") or "-", r["forward_s"], r["grad_s"], r["grad_over_forward"],
@@ -925,9 +930,8 @@ def sec_gpu(doc: Doc):
                 doc.p(table(["ensemble mode", "batch", "steps", "scenario-steps/s", "vs one by one"],
                             [[r.get("mode"), r.get("batch", 1), r.get("steps"), r.get("scenario_steps_per_s"),
                               r.get("speedup_vs_one_by_one")] for r in e]))
-        recs = doc.path(f"{stem}_coupled.jsonl") and load(doc.path(f"{stem}_coupled.jsonl"))
+        recs = _sourced(doc, f"{stem}_coupled.jsonl")
         if recs:
-            doc.src(f"{stem}_coupled.jsonl")
             doc.p("Coupled step split, sliding wedge (`bench_coupled.py`); issue 7's <= 15 % target is stated for the "
                   "2-core CPU (table above): on the GPU the water is cheap and the block stages, many small "
                   "kernels, weigh more (and this run's water step still used the CPU's 512-row blocks: 35k rows).")

@@ -276,7 +276,8 @@ class Config:
         gamma: Tait exponent (WCSPH).
         cfl: Courant number used for the host time step and the in-jit stability check.
         blocks: the static block description (``rockjax.blocks.BlockConfig``), or None for no blocks.
-        coupling: how water and blocks exchange forces (``Coupling``); NONE when either is absent.
+        coupling: how water and blocks exchange forces (``Coupling``); NONE when either is absent;
+            ``BOUNDARY_INTEGRAL`` needs the WCSPH scheme.
         coupling_guard: with ``Coupling.BOUNDARY_PARTICLES``, also apply the seed Eq 22 penalty
             (``coupling.penalty``, within ``CouplingParams.interaction_distance`` of a face, dx/4 by
             default) so that no water particle is pressed between a block's particles into it; the

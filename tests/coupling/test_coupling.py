@@ -110,10 +110,11 @@ def _inside_distance(x, B, i):
     return s.max(1)
 
 
-@pytest.fixture(scope="module")
-def dropped():
+@pytest.fixture(scope="module", params=[Coupling.PENALTY, pytest.param(Coupling.BOUNDARY_INTEGRAL, marks=pytest.mark.slow)],
+                ids=lambda c: c.value)
+def dropped(request):
     scene = block_drop(dx=0.025, box_size=(0.1, 0.1, 0.1), tank_size=(0.3, 0.3), water_depth=0.15,
-                       drop_height=0.1, coupling=Coupling.PENALTY)
+                       drop_height=0.1, coupling=request.param)
     return scene, rj.simulate(scene, t_end=0.5, frame_dt=0.05)
 
 
@@ -254,3 +255,12 @@ def test_seed_scheme_boundary_particle_load_is_the_reaction():
     F, T, scale = reaction(placed.particles, placed.nbrs, placed.blocks)
     np.testing.assert_allclose(np.asarray(new.coupling.force[0]), np.asarray(F), rtol=0, atol=1e-5 * scale)
     np.testing.assert_allclose(np.asarray(new.coupling.torque[0]), np.asarray(T), rtol=0, atol=1e-5 * scale * 0.2)
+
+
+def test_boundary_integral_needs_wcsph():
+    """The wall term of ``Coupling.BOUNDARY_INTEGRAL`` is written for the WCSPH scheme: the seed
+    scheme with it is refused on the host, naming the field."""
+    scene = block_drop(dx=0.05, box_size=(0.1, 0.1, 0.1), tank_size=(0.3, 0.3), water_depth=0.15, drop_height=0.1,
+                       coupling=Coupling.BOUNDARY_INTEGRAL)
+    with pytest.raises(ValueError, match="BOUNDARY_INTEGRAL needs scheme WCSPH"):
+        scene.config.replace(scheme=rj.Scheme.SEED)

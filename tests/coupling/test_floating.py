@@ -7,7 +7,11 @@ The draft is measured from the water level the water volume gives once the box f
 equilibrium (the tank is finite: the level rises as the box sinks), not from the initial level.
 Slow: ~3 min per coupling on 2 busy cores (measured 2026-11-27).
 
-Penalty (seed Eq 22) coupling: measured +34 % (strict xfail). Why, from a diagnostic run
+``Coupling.BOUNDARY_INTEGRAL`` (semi-analytical wall term, 2026-11-27): measured -6.0 % (xfail, not
+strict: the heave is hardly damped, so the mean moves with the window).
+
+Penalty (seed Eq 22) coupling: measured +34 % (strict xfail); with the box twice as wide (0.24 m,
+tank 0.6 m) +19.7 % (2026-11-27): much of the bias comes from the box's edges. Why, from a diagnostic run
 (2026-11-23, dx = 0.02, 2 s): at equilibrium the penalty load equals the box weight (5.63 vs
 5.65 N), the first fluid layer sits 0.41-0.50 dx below the bottom face, and its pressure is
 680-770 Pa where the box weight needs only 392 Pa over the face. The spring carries what the SPH
@@ -54,6 +58,11 @@ def settled_draft(coupling, dx=DX, t_end=3.0):
         strict=True, raises=AssertionError,
         reason="measured 2026-11-23 at dx = 0.02: 0.0536 m vs 0.040 m (+34 %; 0.0533 m, +33 %, on 2026-11-25); the seed Eq 22 "
                             "penalty transmits ~0.925 p - rho g dx of the pressure p (module docstring)")),
+    pytest.param(rj.Coupling.BOUNDARY_INTEGRAL, marks=pytest.mark.xfail(
+        strict=False, raises=AssertionError,
+        reason="measured 2026-11-27 at dx = 0.02: 0.0376 m vs 0.040 m (-6.0 %; the heave still bobs +-3 mm at 3 s, "
+               "hardly damped); the semi-analytical wall term (penalty.wall_terms) is new: its kernel-share "
+               "approximations are checked, the source of the remaining bias is not found yet")),
 ])
 def test_archimedes_draft(coupling):
     draft, eq = settled_draft(coupling)

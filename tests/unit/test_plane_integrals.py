@@ -47,3 +47,21 @@ def test_plane_integrals_match_quadrature(x64, kind, w):
     area, beyond = (np.asarray(v) for v in fn(s, np.float64(h)))
     assert np.trapezoid(area, s) == pytest.approx(0.5, rel=1e-6)
     assert np.trapezoid(beyond, s) == pytest.approx(np.trapezoid(s * area, s), rel=1e-6)
+
+
+def test_face_share_approximation(x64):
+    """``coupling.penalty.wall_terms`` takes the share of a face plane's kernel integral inside a
+    face edge at in-plane distance e as 1 - G(e) (G(-e) outside). Against the exact share (2D
+    quadrature of the Wendland C2 kernel over the half plane), for the first water layers
+    (s <= 0.8 h): within 0.01."""
+    h = 1.0
+    _, beyond = kernels.plane_integrals(KernelKind.WENDLAND_C2)(np.asarray([0.3, 0.6]), h)
+    approx = {0.3: 1.0 - float(beyond[0]), 0.6: 1.0 - float(beyond[1]), -0.3: float(beyond[0]), -0.6: float(beyond[1])}
+    for s in [0.0, 0.4, 0.8]:
+        R = np.sqrt(4 * h * h - s * s)
+        total = _plane(_wendland, s, h)
+        for e, share in approx.items():
+            exact = integrate.dblquad(lambda y, x: _wendland(np.sqrt(s * s + x * x + y * y), h), -R, min(e, R),
+                                      lambda x: -np.sqrt(max(R * R - x * x, 0.0)),
+                                      lambda x: np.sqrt(max(R * R - x * x, 0.0)), epsabs=1e-9)[0] / total
+            assert abs(exact - share) < 0.01, (s, e, exact, share)

@@ -14,8 +14,8 @@ resolution. Two choices the paper leaves open, made here:
   and in front of a face, a lower bound near edges and corners), and ``n`` is that face's normal;
 * the force never pulls: ``max(K_S d - K_D v_n, 0)`` (a receding particle is not held back).
 
-With ``Coupling.BOUNDARY_INTEGRAL`` the same function adds a semi-analytical wall term (``wall_term``,
-``wall_density_rate``): each fluid particle within 2h of a block's nearest face gets the pressure
+With ``Coupling.BOUNDARY_INTEGRAL`` the same function adds a semi-analytical wall term (``wall_terms``):
+each fluid particle within 2h of a block gets the pressure
 force and density rate of the kernel support the block cuts off (Kulasegaram et al. 2004, Ferrand
 et al. 2013), so the block carries the water's pressure instead of a spring's; the penalty then only
 guards (``r0 = dx / 4``, ``scenes.coupled.coupling_params``).
@@ -34,7 +34,7 @@ from ..blocks.rotation import quat_matrix
 from ..sph.kernels import plane_integrals
 from ..types import Config, Coupling, CouplingState, Kind, Params, Particles
 
-__all__ = ["accelerations", "apply", "load", "coupled_blocks", "fixed_blocks", "guard_fixed", "wall_term"]
+__all__ = ["accelerations", "apply", "load", "coupled_blocks", "fixed_blocks", "guard_fixed", "wall_terms"]
 
 
 def _is_fixed(motion) -> bool:
@@ -75,7 +75,7 @@ def _exchange(P: Particles, blocks, params: Params, config: Config):
         ``acc`` [n_fluid, Bc, 3] m/s^2, acceleration of fluid particle i due to coupled block b;
         ``r`` [n_fluid, Bc, 3] m, the lever arm x_i - X_b; ``idx`` the coupled block indices;
         ``drho`` [n_fluid] kg/m^3/s, with ``Coupling.BOUNDARY_INTEGRAL`` the density rate the
-        continuity sum misses behind the nearest faces (``wall_density_rate``), else None.
+        continuity sum misses inside the blocks (``wall_terms``), else None.
 
     Per block, the nearest face is found by a static loop over the faces on [n_fluid] arrays
     (signed distance and face index), then its world normal is gathered from an [F, 3] table.
@@ -112,48 +112,63 @@ def _exchange(P: Particles, blocks, params: Params, config: Config):
         mag = jnp.where(fluid & (d > 0), jnp.maximum(mag, 0.0), 0.0)
         a = mag[:, None] * n
         if drho is not None:
-            a = a + jnp.where(fluid[:, None], wall_term(P, s, n, params, config), 0.0)
-            drho = drho + jnp.where(fluid, wall_density_rate(P, s, vn, params, config), 0.0)
+            a_w, drho_w = wall_terms(P, r, v - v_surf, normals, offsets, fmask, params, config)
+            a = a + jnp.where(fluid[:, None], a_w, 0.0)
+            drho = drho + jnp.where(fluid, drho_w, 0.0)
         acc.append(a)
         lever.append(r)
     return jnp.stack(acc, axis=1), jnp.stack(lever, axis=1), idx, drho
 
 
-def wall_term(P: Particles, s, n, params: Params, config: Config):
-    """``Coupling.BOUNDARY_INTEGRAL``: what a fluid particle's WCSPH momentum sum misses where the
-    block cuts its kernel support [n_fluid, 3] m/s^2 (semi-analytical wall: Kulasegaram et al. 2004,
-    Ferrand et al. 2013; here for the nearest face's half space).
+def wall_terms(P: Particles, r, v_rel, normals, offsets, fmask, params: Params, config: Config):
+    """``Coupling.BOUNDARY_INTEGRAL``: what a fluid particle's WCSPH sums miss where one block cuts
+    its kernel support (semi-analytical wall: Kulasegaram et al. 2004, Ferrand et al. 2013).
 
-    With ``s`` [n_fluid] the distance to the nearest face (clamped to >= 0) and ``n`` [n_fluid, 3] its
-    outward normal, the missing part of ``-sum_j V_j (p_i + p_j) grad W_ij / rho_i`` over the half
-    space behind the face, the pressure there continued hydrostatically from the particle
-    (``p = p_w + rho_i g.(y - x_w)``, ``p_w = p_i - rho_i s (g . n)`` at the face), is
+    Args: ``r`` [n_fluid, 3] m, x_i - X_b; ``v_rel`` [n_fluid, 3] m/s, the particle's velocity
+    relative to the block surface; the block's world face ``normals`` [F, 3], ``offsets`` [F] m
+    (``n.x <= d`` inside, about the centroid) and ``fmask`` [F].
 
-        a_i = (p_i + p_w) / rho_i A(s) n - g G(s),
+    Returns ``(acc [n_fluid, 3] m/s^2, drho [n_fluid] kg/m^3/s)``. By the divergence theorem the
+    missing kernel gradient is ``int_block grad_x W dy = -sum_f n_f P_f``, ``P_f`` the kernel's
+    integral over face f, taken as ``A(|s_f|)`` (the infinite plane's, ``sph.kernels.plane_integrals``)
+    times the share of the kernel's footprint inside the face polygon: the product over the other
+    faces g of ``1 - G(e_fg)`` (``G(-e)`` for e < 0), ``e_fg`` the in-plane distance from the foot
+    point to the line where face f's plane meets g's (the polygon is plane f cut by the others).
+    With the pressure behind a face continued hydrostatically from the particle
+    (``p_f = p_i - rho_i s_f g.n_f`` at its foot point), the missing part of
+    ``-sum_j V_j (p_i + p_j) grad W_ij / rho_i`` is
 
-    ``A`` the kernel's integral over the face plane and ``G`` its volume fraction behind it
-    (``sph.kernels.plane_integrals``). Summed over a still water column, the reactions give the
-    block exactly ``p_w`` per unit face area (the ``g G`` part cancels the ``rho g s`` excess of
-    ``p_i``), so the draft of a floating block does not depend on where the first water layer
-    sits. The continuity equation's missing part is ``wall_density_rate``. Not included: the
-    block's acceleration in the continued pressure, and the second face near edges and corners.
+        a_i = sum_f (p_i + p_f) / rho_i P_f n_f - g G_b,
+
+    ``G_b`` the kernel's volume fraction inside the block (the product of the faces' half-space
+    fractions), and the missing part of the continuity sum, the surface velocity standing for the
+    missing neighbours', ``-rho_i sum_f P_f v_rel . n_f``. Summed over a still water column the
+    reactions give a face its hydrostatic pressure per unit area (the ``g G`` part cancels the
+    ``rho g s`` excess of ``p_i``) wherever the first water layer sits. Not included: the block's
+    acceleration in the continued pressure.
     """
     nf = config.n_fluid
-    area, beyond = plane_integrals(config.kernel)(jnp.maximum(s, 0.0), params.fluid.h)
+    area_fn = plane_integrals(config.kernel)
+    h = params.fluid.h
+    dt = r.dtype
+    s = r @ normals.T - offsets[None, :]  # [nf, F] signed distances to the face planes
+    on = fmask[None, :]
+    # in-plane distance from face f's foot point to its edge with face g: (s_f cos - s_g) / sin
+    cos = jnp.clip(normals @ normals.T, -1.0, 1.0)  # [F, F]
+    sin = jnp.sqrt(jnp.maximum(1.0 - cos**2, 0.0))
+    cut = (sin > 1e-6) & fmask[:, None] & fmask[None, :] & ~jnp.eye(cos.shape[0], dtype=bool)
+    e = (s[:, :, None] * cos[None] - s[:, None, :]) / jnp.where(cut, sin, 1.0)[None]  # [nf, F, G]
+    g_e = area_fn(jnp.abs(e), h)[1]
+    inside = jnp.where(cut[None], jnp.where(e >= 0, 1.0 - g_e, g_e), 1.0)
+    area, beyond = area_fn(jnp.abs(s), h)
+    face_int = jnp.where(on, area * jnp.prod(inside, axis=2), 0.0)  # P_f [nf, F] 1/m
+    frac = jnp.where(on, jnp.where(s >= 0, beyond, 1.0 - beyond), 1.0)  # kernel share behind each plane
     p, rho = P.p[:nf], P.rho[:nf]
-    g = params.gravity.astype(n.dtype)
-    gn = n[:, 0] * g[0] + n[:, 1] * g[1] + n[:, 2] * g[2]
-    p_w = p - rho * jnp.maximum(s, 0.0) * gn
-    return ((p + p_w) / rho * area)[:, None] * n - beyond[:, None] * g
-
-
-def wall_density_rate(P: Particles, s, vn, params: Params, config: Config):
-    """``Coupling.BOUNDARY_INTEGRAL``: the part of the continuity sum ``rho_i sum_j V_j (v_i - v_j) .
-    grad W_ij`` behind the nearest face, the block's surface velocity standing for the missing
-    neighbours' [n_fluid] kg/m^3/s: ``-rho_i A(s) v_n`` (``v_n`` the particle's normal velocity
-    relative to the surface, negative while approaching: water a face moves into is compressed)."""
-    area, _ = plane_integrals(config.kernel)(jnp.maximum(s, 0.0), params.fluid.h)
-    return -P.rho[: config.n_fluid] * area * vn
+    g = params.gravity.astype(dt)
+    p_face = p[:, None] - rho[:, None] * s * (normals @ g)[None, :]  # [nf, F]
+    acc = ((p[:, None] + p_face) / rho[:, None] * face_int) @ normals - jnp.prod(frac, axis=1)[:, None] * g
+    drho = -rho * jnp.sum(face_int * (v_rel @ normals.T), axis=1)
+    return acc, drho
 
 
 def _reaction(P: Particles, acc, r, idx, params: Params, config: Config, n_blocks: int) -> CouplingState:

@@ -84,9 +84,9 @@ Form (b): a general scene
     # viscosity, wall_model, density_diffusion (water-only scenes; with blocks the defaults hold)
 
     [coupling]                         # water <-> moving blocks
-    method = "penalty"                 # or "boundary_particles"; stiffness [1/s^2],
+    method = "penalty"                 # or "boundary_particles", "boundary_integral"; stiffness [1/s^2],
                                        # damping [1/s], interaction_distance [m] (penalty, seed Eq 22;
-                                       # default dx/2); guard (boundary_particles: that penalty
+                                       # default dx/2, dx/4 with the others); guard (boundary_particles: that penalty
                                        # within dx/4 of a face too, default true); guard_fixed
                                        # (the fixed blocks' faces too, default false)
     [[gauge]]                          # free-surface elevation at (x, y)
@@ -331,7 +331,7 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
             "viscosity": _choice(_enum_values(Viscosity), "artificial"),
             "wall_model": _choice(_enum_values(WallModel), "adami"),
             "density_diffusion": _choice(_enum_values(DensityDiffusion), "fourtakas")},
-    "coupling": {"method": _choice(("penalty", "boundary_particles"), "penalty"),
+    "coupling": {"method": _choice(("penalty", "boundary_particles", "boundary_integral"), "penalty"),
                  "stiffness": _num(unit="1/s^2", **_POS), "damping": _num(unit="1/s", **_NONNEG),
                  "interaction_distance": _num(unit="m", **_POS), "guard": _Key("bool", True),
                  "guard_fixed": _Key("bool", False)},
