@@ -674,7 +674,7 @@ def sec_piston(doc: Doc):
 
 
 def sec_wedge(doc: Doc):
-    doc.h("Wedge coupling: penalty vs boundary particles")
+    doc.h("Wedge coupling: penalty vs boundary particles vs boundary integral")
     recs = doc.records("wedge_coupling.json", "python experiments/wedge_coupling.py")
     if recs is None:
         return

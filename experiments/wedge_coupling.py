@@ -1,6 +1,7 @@
-"""The seed's sliding wedge run to the wave's arrival on the far beach with both couplings.
+"""The seed's sliding wedge run to the wave's arrival on the far beach with each coupling.
 
-For each coupling method (seed Eq 22 penalty; boundary particles on the block faces) the same
+For each coupling method (seed Eq 22 penalty; boundary particles on the block faces; the
+semi-analytical wall term, ``--coupling penalty boundary_particles boundary_integral``) the same
 scene runs to ``--t-end``; gauges (free-surface elevation at three points of the flat), run-up
 on the far beach (hard and smooth), the wedge trajectory and its impact speed are recorded.
 Prints one JSON line per method and writes ``experiments/results/wedge_coupling.json`` and a

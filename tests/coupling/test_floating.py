@@ -8,7 +8,8 @@ equilibrium (the tank is finite: the level rises as the box sinks), not from the
 Slow: ~3 min per coupling on 2 busy cores (measured 2026-11-27).
 
 ``Coupling.BOUNDARY_INTEGRAL`` (semi-analytical wall term, 2026-11-27): measured -6.0 % (xfail, not
-strict: the heave is hardly damped, so the mean moves with the window).
+strict: the heave is hardly damped, so the mean moves with the window); the box twice as wide
+-15.7 % (mean over 2.5-5 s): the bias is over the face, not at its edges.
 
 Penalty (seed Eq 22) coupling: measured +34 % (strict xfail); with the box twice as wide (0.24 m,
 tank 0.6 m) +19.7 % (2026-11-27): much of the bias comes from the box's edges. Why, from a diagnostic run
