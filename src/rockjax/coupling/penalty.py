@@ -155,9 +155,10 @@ def wall_terms(P: Particles, r, v_rel, normals, offsets, fmask, params: Params, 
     on = fmask[None, :]
     # in-plane distance from face f's foot point to its edge with face g: (s_f cos - s_g) / sin
     cos = jnp.clip(normals @ normals.T, -1.0, 1.0)  # [F, F]
-    sin = jnp.sqrt(jnp.maximum(1.0 - cos**2, 0.0))
-    cut = (sin > 1e-6) & fmask[:, None] & fmask[None, :] & ~jnp.eye(cos.shape[0], dtype=bool)
-    e = (s[:, :, None] * cos[None] - s[:, None, :]) / jnp.where(cut, sin, 1.0)[None]  # [nf, F, G]
+    sin2 = 1.0 - cos**2
+    cut = (sin2 > 1e-12) & fmask[:, None] & fmask[None, :] & ~jnp.eye(cos.shape[0], dtype=bool)
+    sin = jnp.sqrt(jnp.where(cut, sin2, 1.0))  # parallel faces never cut each other (and no NaN gradient)
+    e = (s[:, :, None] * cos[None] - s[:, None, :]) / sin[None]  # [nf, F, G]
     g_e = area_fn(jnp.abs(e), h)[1]
     inside = jnp.where(cut[None], jnp.where(e >= 0, 1.0 - g_e, g_e), 1.0)
     area, beyond = area_fn(jnp.abs(s), h)
