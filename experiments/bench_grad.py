@@ -37,7 +37,7 @@ import math
 import statistics
 import time
 
-from rockjax.types import Adjoint
+from rockjax.types import Adjoint, GatherForm
 
 
 def build(name: str, dx: float = 0.05):
@@ -241,6 +241,7 @@ def main(argv=None):
     ap.add_argument("--adjoint", default=None, choices=[a.value for a in Adjoint],
                     help="Config.adjoint: how reverse mode goes through the WCSPH pair sums (default: the scene's)")
     ap.add_argument("--dx", type=float, default=0.05, help="particle spacing of the dam scene m (0.05: 360 fluid)")
+    ap.add_argument("--gather", default=None, choices=["components", "rows"], help="Config.gather (GatherForm)")
     ap.add_argument("--skip-grad", action="store_true")
     ap.add_argument("--skip-ensemble", action="store_true")
     ap.add_argument("--levels", type=int, default=2, choices=[1, 2, 3],
@@ -278,13 +279,15 @@ def main(argv=None):
     scene = build(args.scene, args.dx)
     if args.adjoint:
         scene = scene.replace(config=scene.config.replace(adjoint=Adjoint(args.adjoint)))
+    if args.gather:  # GatherForm: a speed setting (rows: one row gather of the stacked values)
+        scene = scene.replace(config=scene.config.replace(gather=GatherForm(args.gather)))
     config = scene.config
     k = config.rebuild_every
     T = args.base_steps or 2 * k
     obj = objective(scene)
     base = dict(scene=args.scene, n_fluid=config.n_fluid, n_wall=config.n_wall,
                 n_blocks=(config.blocks.n_blocks if config.blocks else 0), dtype="f64" if args.f64 else "f32",
-                adjoint=config.effective_adjoint.value, jax_pullbacks=args.jax_pullbacks,
+                adjoint=config.effective_adjoint.value, gather=config.gather.value, jax_pullbacks=args.jax_pullbacks,
                 dt=config.dt, rebuild_every=k, device=str(jax.devices()[0].platform))
     state0 = jax.jit(prime, static_argnums=2)(scene.state, scene.params, config)
     if args.step_vjp:

@@ -54,7 +54,7 @@ def _cpu() -> float:
 
 def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: float | None,
              rebuild_every: int | None, warm_time: float = 0.0, trigger: bool = True, tag: str = "",
-             diffusion: str | None = None) -> dict:
+             diffusion: str | None = None, gather: str | None = None, row_tile: int | None = None) -> dict:
     import jax
     import numpy as np
 
@@ -74,6 +74,9 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
     t0 = time.perf_counter()
     scene = rj.scenes.dam_break(dx=0.5 / nx, scheme=rj.Scheme(scheme), **kw)
     setup_s = time.perf_counter() - t0
+    if gather is not None or row_tile is not None:  # speed settings (GatherForm, Config.row_tile)
+        scene = scene.replace(config=scene.config.replace(
+            **({"gather": rj.GatherForm(gather)} if gather else {}), **({"row_tile": row_tile} if row_tile is not None else {})))
     config, params, state0 = scene.config, scene.params, scene.state
     counts = scene.counts()
     regrows = 0
@@ -139,7 +142,8 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
     ms_step = 1e3 * best(advance_c, state, params)
     nf, nw = counts["fluid"], counts["wall"]
     return {
-        "bench": "sph_dam_break_3d", "tag": tag, "size": size, "scheme": scheme, "diffusion": config.density_diffusion.value, "n_fluid": nf, "n_wall": nw,
+        "bench": "sph_dam_break_3d", "tag": tag, "size": size, "scheme": scheme, "diffusion": config.density_diffusion.value,
+        "gather": config.gather.value, "row_tile": config.effective_row_tile, "n_fluid": nf, "n_wall": nw,
         "dx": 0.5 / nx, "dtype": str(np.asarray(state.particles.x).dtype),
         "K": config.neighbour_capacity, "cell_capacity": config.cell_capacity,
         "skin_dx": round(config.skin / (0.5 / nx), 3), "rebuild_every": config.rebuild_every, "regrows": regrows,
@@ -229,12 +233,14 @@ def main(argv=None):
     ap.add_argument("--ab", nargs="+", metavar="SKIN:K:TRIGGER[:DIFFUSION]",
                     help="interleaved in-process A/B of these settings (first size only), e.g. 0.6:8:0 0.3:32:1 "
                          "0.3:32:1:fourtakas_surface")
+    ap.add_argument("--gather", default=None, choices=["components", "rows"], help="Config.gather (GatherForm)")
+    ap.add_argument("--row-tile", type=int, default=None, help="Config.row_tile (0: one block)")
     ap.add_argument("--ab-steps", type=int, default=32)
     ap.add_argument("--case", nargs=2, metavar=("SIZE", "SCHEME"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     opts = dict(blocks=args.blocks, reps=args.reps, skin_factor=args.skin_factor, rebuild_every=args.rebuild_every,
                 warm_time=args.warm_time, trigger=not args.no_trigger, tag=args.tag,
-                diffusion=args.diffusion)
+                diffusion=args.diffusion, gather=args.gather, row_tile=args.row_tile)
     if args.ab:
         print(json.dumps(ab_case(args.sizes[0], args.ab, steps=args.ab_steps, reps=args.reps,
                                  warm_time=args.warm_time, tag=args.tag)), flush=True)
@@ -250,6 +256,10 @@ def main(argv=None):
                 cmd += ["--no-trigger"]
             if args.diffusion is not None:
                 cmd += ["--diffusion", args.diffusion]
+            if args.gather is not None:
+                cmd += ["--gather", args.gather]
+            if args.row_tile is not None:
+                cmd += ["--row-tile", str(args.row_tile)]
             if args.skin_factor is not None:
                 cmd += ["--skin-factor", str(args.skin_factor)]
             if args.rebuild_every is not None:

@@ -6,18 +6,22 @@
 #                                            # rockjax from src/, trimesh from carried wheels)
 #   GPU_SMALL=1 OUT=/tmp/out bash experiments/gpu_session.sh   # a dry run of the same on the CPU
 #
-# 1. fluid-only throughput and device memory, 3D dam break, 20k -> 1M fluid (compare_peers --scaling);
-# 2. gradient: backward/forward ratio and XLA temp bytes, T and 4T steps, and ensembles 1/8/64;
-# 3. the two adjoints (AUTODIFF, PAIR_SUMS) side by side (the gather form matters on GPUs, DESIGN);
-# 4. coupled wedge step: the blocks + coupling share.
+# 1. where a WCSPH step's time goes at 80k (bench_sph): gather form components vs rows (GatherForm),
+#    one row block (the accelerator default since 2026-11-27) vs 512-row blocks;
+# 2. fluid-only throughput and device memory, 3D dam break, 20k -> 1M fluid (compare_peers --scaling);
+# 3. the gradient under both adjoints and both gather forms (DESIGN: the reverse mode of 1-D
+#    gathers was measured 8x slower than of row gathers on a GPU);
+# 4. coupled wedge step: the blocks + coupling share;
+# 5. gradient ratio and XLA temp bytes at T and 4T steps, ensembles 1/8/64 (measured 2026-11-27).
+# Limits sum to 510 s: with a machine's start (~1 min) one call fits a 15-min session with room.
 set -u
 OUT=${OUT:?set OUT}
 export PYTHONPATH=$PWD/src${PYTHONPATH:+:$PYTHONPATH} PYTHONUNBUFFERED=1
 PY=${PY:-python3}
 if [ -n "${GPU_SMALL:-}" ]; then
-  SIZES="5k"; GDX=0.05; BATCH="1 8"; CDX=0.05; T1=300; T2=300; T3=300; T4=300
+  SIZES="5k"; SPH=5k; GDX=0.1; BATCH="1 8"; CDX=0.05; T0=300; T1=300; T2=300; T3=300; T4=300
 else
-  SIZES="20k 80k 300k 1M"; GDX=0.0125; BATCH="1 8 64"; CDX="0.02"; T1=130; T2=150; T3=100; T4=90
+  SIZES="20k 80k 300k 1M"; SPH=80k; GDX=0.0125; BATCH="1 8 64"; CDX="0.02"; T0=100; T1=100; T2=190; T3=60; T4=60
 fi
 if [ -d .whl ] && [ -z "${GPU_SMALL:-}" ]; then  # trimesh (pure Python) is not in the device image
   $PY -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target /tmp/site .whl/*.whl \
@@ -29,11 +33,16 @@ git log -1 --format='commit %h %cd' 2>/dev/null | tee -a $OUT/env.txt
 run() {  # name limit cmd...
   local name=$1 limit=$2; shift 2
   local t0=$SECONDS
-  timeout $limit "$@" > $OUT/$name.jsonl 2> $OUT/$name.err
+  timeout $limit "$@" > $OUT/$name.jsonl 2> /tmp/gpu_session_$name.err
   echo "## $name rc=$? ${limit}s-limit took $((SECONDS - t0))s" | tee -a $OUT/env.txt
-  tail -c 1500 $OUT/$name.err
+  { echo "## $name"; tail -c 3000 /tmp/gpu_session_$name.err; } | tee -a $OUT/errors.txt | tail -c 800
 }
+run sph $T0 bash -c "$PY experiments/bench_sph.py --sizes $SPH --schemes wcsph --reps 3 --gather components --tag gpu;
+  $PY experiments/bench_sph.py --sizes $SPH --schemes wcsph --reps 3 --gather rows --tag gpu;
+  $PY experiments/bench_sph.py --sizes $SPH --schemes wcsph --reps 3 --row-tile 512 --tag gpu"
 run scaling $T1 $PY experiments/compare_peers.py --scaling --sizes $SIZES --schemes wcsph --reps 3
-run grad $T2 $PY experiments/bench_grad.py --scene dam --dx $GDX --multiples 1 4 --batches $BATCH --repeats 3
-run adjoint $T3 $PY experiments/bench_grad.py --scene dam --dx $GDX --adjoint-ab --ab-tiles 0 --repeats 3
+run adjoint $T2 bash -c "$PY experiments/bench_grad.py --scene dam --dx $GDX --adjoint-ab --ab-tiles 0 --repeats 3;
+  $PY experiments/bench_grad.py --scene dam --dx $GDX --adjoint-ab --ab-tiles 0 --repeats 3 --gather rows"
 run coupled $T4 $PY experiments/bench_coupled.py --dx $CDX --reps 10
+run grad $T3 $PY experiments/bench_grad.py --scene dam --dx $GDX --multiples 1 4 --batches $BATCH --repeats 3
+# at most 8 files come back from the device: env.txt, errors.txt and these five .jsonl

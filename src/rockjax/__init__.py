@@ -19,7 +19,7 @@ from .rollout import make_rollout, rollout
 from .scenes import Scene
 from .step import make_step, prime
 from .types import (
-    Adjoint, Config, Coupling, CouplingParams, CouplingState, DensityDiffusion, FluidParams, GridSpec, KernelKind, Kind,
+    Adjoint, Config, Coupling, GatherForm, CouplingParams, CouplingState, DensityDiffusion, FluidParams, GridSpec, KernelKind, Kind,
     NeighbourList, Params, Particles, Scheme, State, Status, Viscosity, WallModel,
 )
 
@@ -27,7 +27,7 @@ __all__ = [
     "__version__",
     "Config", "Params", "FluidParams", "State", "Particles", "NeighbourList", "GridSpec",
     "CouplingParams", "CouplingState",
-    "Scheme", "KernelKind", "Viscosity", "WallModel", "DensityDiffusion", "Adjoint", "Coupling", "Kind", "Status",
+    "Scheme", "KernelKind", "Viscosity", "WallModel", "DensityDiffusion", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
     "make_step", "prime", "make_rollout", "rollout",
     "simulate", "Result", "SimulationError",
     "Scene", "scenes", "observables", "io", "blocks", "coupling", "calibrate", "ensembles",

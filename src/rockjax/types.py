@@ -27,6 +27,7 @@ __all__ = [
     "WallModel",
     "DensityDiffusion",
     "Adjoint",
+    "GatherForm",
     "Coupling",
     "Kind",
     "Status",
@@ -103,6 +104,17 @@ class Adjoint(enum.Enum):
     #: a custom VJP of each pair sum by gathers over the symmetric list (``sph.pair_sum``): the
     #: same forward, a faster reverse mode; ``jax.jvp`` through the step raises
     PAIR_SUMS = "pair_sums"
+
+
+class GatherForm(enum.Enum):
+    """How the WCSPH pair sums read the neighbours' values (``Config.gather``): a speed setting only."""
+
+    #: one 1-D gather per value (position components, velocity components, rho, p, ...): the
+    #: fastest forward on the CPU (DESIGN.md: 2x a packed [n, 8] gather)
+    COMPONENTS = "components"
+    #: the values stacked into one [N, C] array and gathered by rows ([R, K, C]): its reverse mode
+    #: scatters rows, which DESIGN.md measured 8x faster on a GPU than the component scatters
+    ROWS = "rows"
 
 
 class Coupling(enum.Enum):
@@ -263,6 +275,10 @@ class Config:
             one; at 80k rows the blocked step took 4.35 ms). A speed setting only: the result
             does not depend on it beyond float rounding (``effective_row_tile``).
         scheme, kernel, viscosity, wall_model, density_diffusion: scheme choices.
+        gather: how the WCSPH pair sums gather the neighbours' values (``GatherForm``): one 1-D
+            gather per value (default) or one row gather of them stacked; a speed setting only (the
+            same numbers), kept for the GPU, where the reverse mode of 1-D gathers was measured slow
+            (DESIGN.md; rockjax's grad / forward on one H200: 11-22, 2026-11-27).
         adjoint: how reverse mode goes through the WCSPH pair sums (``Adjoint``): a speed setting
             of gradients only (the forward is the same computation). None (default):
             ``PAIR_SUMS`` when the pair sums run in row blocks (``effective_row_tile`` > 0, large
@@ -313,6 +329,7 @@ class Config:
     wall_model: WallModel = WallModel.ADAMI
     density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS
     adjoint: Optional[Adjoint] = None
+    gather: GatherForm = GatherForm.COMPONENTS
     gamma: float = 7.0
     cfl: float = 0.25
     blocks: Optional[Any] = None

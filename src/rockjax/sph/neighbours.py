@@ -40,7 +40,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..types import Config, GridSpec, Kind, NeighbourList, Particles, Status
+from ..types import Config, GatherForm, GridSpec, Kind, NeighbourList, Particles, Status
 
 __all__ = ["cell_coords", "search_grid", "range_capacity", "sort_by_cell", "build", "rebuild", "pair_geometry", "safe_norm", "wrap_positions",
            "min_image", "transpose_sum", "take", "Pairs", "pairs", "Rows", "scan_rows", "wall_pairs"]
@@ -128,16 +128,22 @@ def take(a, i):
     return a.at[i].get(mode="promise_in_bounds", wrap_negative_indices=False)
 
 
-def pair_geometry(x_rows, x_all, idx, grid: GridSpec):
+def pair_geometry(x_rows, x_all, idx, grid: GridSpec, *, rows: bool = False):
     """Separation components of every listed pair.
 
     Args:
-        x_rows: [R, 3] positions of the rows; x_all: [N, 3] all positions; idx: [R, K].
+        x_rows: [R, 3] positions of the rows; x_all: [N, 3] all positions; idx: [R, K];
+        rows: gather ``x_all`` by rows ([R, K, 3]) instead of one component at a time
+            (``GatherForm.ROWS``; the same numbers).
     Returns:
         ``(d, r, r2)``: ``d`` a tuple of three [R, K] arrays ``x_i - x_j`` (minimum image),
         ``r`` and ``r2`` [R, K].
     """
-    d = tuple(min_image(x_rows[:, a, None] - take(x_all[:, a], idx), a, grid) for a in range(3))
+    if rows:
+        xj = take(x_all, idx)
+        d = tuple(min_image(x_rows[:, a, None] - xj[..., a], a, grid) for a in range(3))
+    else:
+        d = tuple(min_image(x_rows[:, a, None] - take(x_all[:, a], idx), a, grid) for a in range(3))
     r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
     return d, safe_norm(r2), r2
 
@@ -179,7 +185,7 @@ def pairs(x, kind, idx, config: Config, *, rows: Optional[Rows] = None) -> Pairs
     """``Pairs`` of fluid rows ``rows`` (default all) for positions ``x`` [N, 3] and the list ``idx`` [n_fluid, K]."""
     rows = Rows(0, config.n_fluid) if rows is None else rows
     idx = rows.of(idx)
-    d, r, r2 = pair_geometry(rows.of(x), x, idx, config.grid)
+    d, r, r2 = pair_geometry(rows.of(x), x, idx, config.grid, rows=config.gather == GatherForm.ROWS)
     # listed neighbours are never padding (``build`` sorts padding past every searched cell), so
     # the mask needs no gather of the neighbours' kinds
     mask = (idx != rows.ids()[:, None]) & (rows.of(kind)[:, None] != Kind.PAD)

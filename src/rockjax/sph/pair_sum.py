@@ -56,7 +56,7 @@ import jax
 import jax.numpy as jnp
 from jax.ad_checkpoint import checkpoint_name
 
-from ..types import Adjoint, Config, Kind
+from ..types import Adjoint, Config, GatherForm, Kind
 from .neighbours import Pairs, Rows, neighbour_kind, pairs, scan_rows, take
 from .walls import wall_pair_geometry
 
@@ -83,9 +83,15 @@ BACKWARD_TILE = 512
 SAVED_NAME = "rockjax_pair_sums"
 
 
-def gathered(pr: Pairs, row_vals: dict, col_vals: dict):
-    """``(ri, cj)`` of a row block: the rows' ``row_vals`` [R, 1] and their neighbours' ``col_vals`` [R, K]."""
-    return ({k: pr.rows.of(a)[:, None] for k, a in row_vals.items()}, {k: take(a, pr.idx) for k, a in col_vals.items()})
+def gathered(pr: Pairs, row_vals: dict, col_vals: dict, config: Config):
+    """``(ri, cj)`` of a row block: the rows' ``row_vals`` [R, 1] and their neighbours' ``col_vals``
+    [R, K] (``config.gather``: one gather per value, or one row gather of them stacked)."""
+    ri = {k: pr.rows.of(a)[:, None] for k, a in row_vals.items()}
+    if config.gather != GatherForm.ROWS:
+        return ri, {k: take(a, pr.idx) for k, a in col_vals.items()}
+    keys = list(col_vals)
+    g = take(jnp.stack([col_vals[k] for k in keys], axis=1), pr.idx)  # [R, K, C]
+    return ri, {k: g[..., c] for c, k in enumerate(keys)}
 
 
 def _fluid_j(pr: Pairs, config: Config):
@@ -95,7 +101,7 @@ def _fluid_j(pr: Pairs, config: Config):
 def _sums(fn, config, shared, x, row_vals, col_vals, params, nbrs, kind):
     def tile(rows: Rows, own, carry):
         pr = pairs(x, kind, nbrs.idx, config, rows=rows)
-        out = fn(*gathered(pr, row_vals, col_vals), pr.d, params, pr.mask, _fluid_j(pr, config), config)
+        out = fn(*gathered(pr, row_vals, col_vals, config), pr.d, params, pr.mask, _fluid_j(pr, config), config)
         return carry, tuple(jnp.sum(o, axis=1) for o in out)
 
     return scan_rows(tile, config.n_fluid, config.effective_row_tile, None)[1]
@@ -106,12 +112,12 @@ def _sums_fwd(fn, config, shared, x, row_vals, col_vals, params, nbrs, kind):
     return out, (x, row_vals, col_vals, params, nbrs, kind)
 
 
-def _symmetric(pr: Pairs, own, fluid_j, pullback, col_vals, params, ct, ct_pad):
+def _symmetric(pr: Pairs, own, fluid_j, pullback, col_vals, params, ct, ct_pad, config: Config):
     """Row block ``pr``'s cotangents from both ends of its pairs by the hand-derived ``pullback``
     (``sph.pullbacks``): ``(ct_params, ct_row_values [R] dict, ct_x [R, 3])``."""
     rows = pr.rows
     on = pr.mask & fluid_j
-    own_v, nb_v = gathered(pr, col_vals, col_vals)
+    own_v, nb_v = gathered(pr, col_vals, col_vals, config)
     g_r = tuple(rows.of(c)[:, None] for c in ct)
     g_j = tuple(jnp.where(on, take(c, pr.idx), 0.0) for c in ct_pad)
     g_p = g_r if own is None else tuple(jnp.where(own[:, None], c, 0.0) for c in g_r)
@@ -134,13 +140,13 @@ def _sums_bwd(fn, config, shared, res, ct):
         pr = pairs(x, kind, nbrs.idx, config, rows=rows)
         d, mask, fluid_j = pr.d, pr.mask, _fluid_j(pr, config)
         if pullback is not None:  # both ends at once; row and column values are the same arrays
-            ct_p, ct_vals, ct_x = _symmetric(pr, own, fluid_j, pullback, col_vals, params, ct, ct_pad)
+            ct_p, ct_vals, ct_x = _symmetric(pr, own, fluid_j, pullback, col_vals, params, ct, ct_pad, config)
             ct_row = {k: jnp.zeros((rows.size,), a.dtype) for k, a in row_vals.items()}
             return jax.tree_util.tree_map(jnp.add, ct_params, ct_p), (ct_row, ct_vals, ct_x)
         ct_r = tuple(rows.of(c) for c in ct)
         if own is not None:  # an overlapping last block: count its shared rows' parameters once
             ct_r = tuple(jnp.where(own, c, 0.0) for c in ct_r)
-        ri_own, cj = gathered(pr, row_vals, col_vals)
+        ri_own, cj = gathered(pr, row_vals, col_vals, config)
 
         def as_i(ri, d, params):
             return tuple(jnp.sum(o, axis=1) for o in fn(ri, cj, d, params, mask, fluid_j, config))
@@ -149,7 +155,7 @@ def _sums_bwd(fn, config, shared, res, ct):
         ct_ri, ct_d_i, ct_p = pull(ct_r)
         # the same pairs seen from j = this row: i = idx (fluid only: walls have no rows, no outputs)
         on = mask & fluid_j
-        cj_own, ri = gathered(pr, col_vals, row_vals)  # this row's column values, the neighbours' row values
+        cj_own, ri = gathered(pr, col_vals, row_vals, config)  # this row's column values, the neighbours' row values
         ct_i = tuple(jnp.where(on, take(c, pr.idx), 0.0) for c in ct_pad)
 
         def as_j(cj_own, d_ij):

@@ -296,7 +296,7 @@ def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params,
     """
     f = params.fluid
     rows = pr.rows
-    ri, cj = gathered(pr, *_continuity_values(v, rho, vol, grad_rho, config))
+    ri, cj = gathered(pr, *_continuity_values(v, rho, vol, grad_rho, config), config)
     (drho,) = _continuity_pair(ri, cj, pr.d, params, pr.mask, t.kind_j == Kind.FLUID, config)
     fluid = rows.of(kind) == Kind.FLUID
     wall_out = None
@@ -385,7 +385,7 @@ def _acceleration_rows(pr: Pairs, t: PairTerms, v, rho, p, vol, kind, params: Pa
     With ``gradient`` also returns the rows' renormalised density gradient [R, 3] last
     (``_density_gradient_rows``, from the pass's own gathers).
     """
-    ri, cj = gathered(pr, *_momentum_values(v, rho, p, vol))
+    ri, cj = gathered(pr, *_momentum_values(v, rho, p, vol), config)
     fn = _momentum_gradient_pair if gradient else _momentum_pair
     out = fn(ri, cj, pr.d, params, pr.mask, t.kind_j == Kind.FLUID, config)
     return _momentum_finish(tuple(jnp.sum(o, axis=1) for o in out), pr.rows.of(kind) == Kind.FLUID, params, gradient)
