@@ -866,6 +866,23 @@ def sec_flags(doc: Doc):
     doc.p(table(["case", "round", "XLA defaults", "YNN fusions off", "ratio", "date"], rows))
 
 
+def sec_held_box(doc: Doc):
+    doc.h("Buoyancy of a held box, per coupling (issue 5)")
+    recs = doc.records("held_box_load.jsonl", "python experiments/held_box_load.py --out experiments/results/held_box_load.jsonl")
+    if recs is None:
+        return
+    doc.p("`experiments/held_box_load.py`: a 500 kg/m^3 box (0.08 m high) held still at its Archimedes draft "
+          "(0.04 m) in 0.16 m of water; the step's vertical load on it averaged over every step from t_end/3 "
+          "to t_end, against rho g x submerged volume (`ratio`), and the load of the primed state (`t = 0`: water "
+          "on its lattice, hydrostatic pressures). The floating-box test's draft error has the opposite sign "
+          "(more load, higher float) and mixes in the heave.")
+    doc.p(table(["coupling", "box [m]", "tank [m]", "h / dx", "n_fluid", "steps", "Archimedes N", "load t = 0 N",
+                 "mean load N", "ratio", "ratio t = 0", "wall s", "load", "date"],
+                [[r["coupling"], " x ".join(f"{v:g}" for v in r["box"]), " x ".join(f"{v:g}" for v in r["tank"]),
+                  r["h_factor"], r["n_fluid"], r["steps"], r["archimedes_N"], r["load_t0_N"], r["load_mean_N"],
+                  r["ratio"], r["ratio_t0"], r["wall_s"], r.get("load"), r.get("date")] for r in recs]))
+
+
 def _sourced(doc: Doc, name: str) -> list[dict]:
     """The records of results file ``name`` with its source line, or [] (no note) if it is absent."""
     if not doc.path(name):
@@ -943,7 +960,7 @@ def sec_gpu(doc: Doc):
 
 
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
-            sec_wedge, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_stress]
+            sec_wedge, sec_held_box, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_stress]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:

@@ -1,0 +1,85 @@
+"""The water's vertical load on a box HELD at its Archimedes draft, per coupling: JSON lines.
+
+A direct check of a coupling's buoyancy without the heave of a floating box (issue 5; the floating
+test, ``tests/coupling/test_floating.py``, mixes the load's bias with a hardly damped oscillation):
+``scenes.floating_box`` with the box started at its equilibrium draft (0.04 m for 500 kg/m^3 and
+0.08 m height) and its motion made PRESCRIBED with a zero stroke, so it never moves; the water
+around it was removed where the box is, so the still level stays at ``water_depth`` and Archimedes
+gives ``rho g x (submerged volume)``. The step's load on the block (``state.coupling.force``) is
+averaged over every step from t_end/3 to t_end (the water's acoustic noise is +-50 % step to
+step). ``ratio`` = mean load / Archimedes.
+
+    python experiments/held_box_load.py --coupling penalty boundary_particles boundary_integral
+    python experiments/held_box_load.py --coupling boundary_integral --box 0.24 0.24 0.08 --tank 0.6 0.6
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import datetime
+import json
+import os
+import time
+
+
+def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: float, depth: float = 0.16,
+              draft: float = 0.04) -> dict:
+    import jax
+    import jax.numpy as jnp
+
+    import rockjax as rj
+    from rockjax.driver import _compiled_prime
+    from rockjax.rollout import scheduled_step
+
+    sc = rj.scenes.floating_box(dx=dx, box_size=box, tank_size=tank, water_depth=depth, coupling=rj.Coupling(coupling),
+                                initial_draft=draft, h_factor=h_factor)
+    held = dataclasses.replace(sc.config.blocks, motion=(rj.blocks.Motion.PRESCRIBED,))
+    params = sc.params.replace(blocks=sc.params.blocks.replace(stroke=jnp.zeros_like(sc.params.blocks.stroke)))
+    config = sc.config.replace(blocks=held)
+    archimedes = sc.params.fluid.rho0 * 9.81 * box[0] * box[1] * draft
+    one = scheduled_step(config, period=32)
+    n = int(round(t_end / config.dt))
+    n0 = n // 3
+
+    def body(carry, k):
+        s, total = carry
+        s = one(s, params)
+        return (s, total + jnp.where(k >= n0, s.coupling.force[0, 2], 0.0)), None
+
+    t0 = time.perf_counter()
+    s0 = _compiled_prime(config)(sc.state, params)
+    load0 = float(s0.coupling.force[0, 2])
+    (s, total), _ = jax.jit(lambda s: jax.lax.scan(body, (s, jnp.zeros((), s.particles.x.dtype)), jnp.arange(n)))(s0)
+    bits = int(s.status)
+    if bits:
+        raise RuntimeError(f"held box ({coupling}): status {rj.Status.describe(bits)}")
+    mean = float(total) / (n - n0)
+    return {"bench": "held_box_load", "coupling": coupling, "dx": dx, "h_factor": h_factor, "box": list(box),
+            "tank": list(tank), "draft": draft, "n_fluid": config.n_fluid, "steps": n, "t_end": n * config.dt,
+            "archimedes_N": float(archimedes), "load_t0_N": load0, "load_mean_N": mean, "ratio": mean / float(archimedes),
+            "ratio_t0": load0 / float(archimedes), "wall_s": round(time.perf_counter() - t0, 1),
+            "date": datetime.date.today().isoformat(), "load": round(os.getloadavg()[0], 2)}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--coupling", nargs="+", default=["penalty", "boundary_particles", "boundary_integral"])
+    ap.add_argument("--box", type=float, nargs=3, default=[0.12, 0.12, 0.08])
+    ap.add_argument("--tank", type=float, nargs=2, default=[0.36, 0.36])
+    ap.add_argument("--dx", type=float, default=0.02)
+    ap.add_argument("--h-factor", type=float, default=1.3)
+    ap.add_argument("--t-end", type=float, default=1.5)
+    ap.add_argument("--out", default=None, help="also append the JSON lines to this file")
+    a = ap.parse_args(argv)
+    for c in a.coupling:
+        rec = held_load(c, box=tuple(a.box), tank=tuple(a.tank), dx=a.dx, t_end=a.t_end, h_factor=a.h_factor)
+        line = json.dumps(rec)
+        print(line, flush=True)
+        if a.out:
+            with open(a.out, "a") as f:
+                f.write(line + "\n")
+
+
+if __name__ == "__main__":
+    main()
