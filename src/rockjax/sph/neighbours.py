@@ -27,7 +27,9 @@ works unchanged), a row with more than ``neighbour_capacity`` neighbours sets
 ``NEIGHBOUR_OVERFLOW``. Indices are integers, outside any gradient.
 
 Pair geometry is gathered component by component (1-D gathers): on the CPU, gathering a
-``[N, 3]`` array by rows was measured 5x slower than three 1-D gathers.
+``[N, 3]`` array by rows was measured 5x slower than three 1-D gathers. ``GatherForm.ROWS``
+(``Config.gather``) gathers rows instead, for accelerators, where the reverse mode of row gathers
+was measured faster (DESIGN.md).
 """
 
 from __future__ import annotations
