@@ -99,8 +99,10 @@ def _exchange(P: Particles, blocks, params: Params, config: Config):
         offsets, fmask = blocks.shape.face_offset[b], blocks.shape.face_mask[b]
         s = jnp.full((nf,), -jnp.inf, x.dtype)  # signed distance to the block
         face = jnp.zeros((nf,), jnp.int32)
+        s_faces = []  # every face's signed distance (the wall term of BOUNDARY_INTEGRAL needs them all)
         for f in range(n_faces):  # the nearest face: the largest signed distance (the first on ties)
             s_f = r[:, 0] * normals[f, 0] + r[:, 1] * normals[f, 1] + r[:, 2] * normals[f, 2] - offsets[f]
+            s_faces.append(s_f)
             better = fmask[f] & (s_f > s)
             s = jnp.where(better, s_f, s)
             face = jnp.where(better, f, face)
@@ -112,7 +114,7 @@ def _exchange(P: Particles, blocks, params: Params, config: Config):
         mag = jnp.where(fluid & (d > 0), jnp.maximum(mag, 0.0), 0.0)
         a = mag[:, None] * n
         if drho is not None:
-            a_w, drho_w = wall_terms(P, r, v - v_surf, normals, offsets, fmask, params, config)
+            a_w, drho_w = wall_terms(P, jnp.stack(s_faces, axis=1), v - v_surf, normals, fmask, params, config)
             a = a + jnp.where(fluid[:, None], a_w, 0.0)
             drho = drho + jnp.where(fluid, drho_w, 0.0)
         acc.append(a)
@@ -120,13 +122,13 @@ def _exchange(P: Particles, blocks, params: Params, config: Config):
     return jnp.stack(acc, axis=1), jnp.stack(lever, axis=1), idx, drho
 
 
-def wall_terms(P: Particles, r, v_rel, normals, offsets, fmask, params: Params, config: Config):
+def wall_terms(P: Particles, s, v_rel, normals, fmask, params: Params, config: Config):
     """``Coupling.BOUNDARY_INTEGRAL``: what a fluid particle's WCSPH sums miss where one block cuts
     its kernel support (semi-analytical wall: Kulasegaram et al. 2004, Ferrand et al. 2013).
 
-    Args: ``r`` [n_fluid, 3] m, x_i - X_b; ``v_rel`` [n_fluid, 3] m/s, the particle's velocity
-    relative to the block surface; the block's world face ``normals`` [F, 3], ``offsets`` [F] m
-    (``n.x <= d`` inside, about the centroid) and ``fmask`` [F].
+    Args: ``s`` [n_fluid, F] m, each particle's signed distance to each face plane (positive in
+    front); ``v_rel`` [n_fluid, 3] m/s, the particle's velocity relative to the block surface; the
+    block's world face ``normals`` [F, 3] and ``fmask`` [F].
 
     Returns ``(acc [n_fluid, 3] m/s^2, drho [n_fluid] kg/m^3/s)``. By the divergence theorem the
     missing kernel gradient is ``int_block grad_x W dy = -sum_f n_f P_f``, ``P_f`` the kernel's
@@ -150,8 +152,7 @@ def wall_terms(P: Particles, r, v_rel, normals, offsets, fmask, params: Params, 
     nf = config.n_fluid
     area_fn = plane_integrals(config.kernel)
     h = params.fluid.h
-    dt = r.dtype
-    s = r @ normals.T - offsets[None, :]  # [nf, F] signed distances to the face planes
+    dt = s.dtype
     on = fmask[None, :]
     # in-plane distance from face f's foot point to its edge with face g: (s_f cos - s_g) / sin
     cos = jnp.clip(normals @ normals.T, -1.0, 1.0)  # [F, F]
