@@ -29,7 +29,6 @@ def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: fl
     import jax.numpy as jnp
 
     import rockjax as rj
-    from rockjax.driver import _compiled_prime
     from rockjax.rollout import scheduled_step
 
     sc = rj.scenes.floating_box(dx=dx, box_size=box, tank_size=tank, water_depth=depth, coupling=rj.Coupling(coupling),
@@ -48,7 +47,7 @@ def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: fl
         return (s, total + jnp.where(k >= n0, s.coupling.force[0, 2], 0.0)), None
 
     t0 = time.perf_counter()
-    s0 = _compiled_prime(config)(sc.state, params)
+    s0 = rj.prime(sc.state, params, config)
     load0 = float(s0.coupling.force[0, 2])
     (s, total), _ = jax.jit(lambda s: jax.lax.scan(body, (s, jnp.zeros((), s.particles.x.dtype)), jnp.arange(n)))(s0)
     bits = int(s.status)

@@ -140,11 +140,6 @@ def _first_bad_step(config: Config, period: int, start_state: State, params, bad
     return int(bad_state.step)
 
 
-@functools.lru_cache(maxsize=32)
-def _compiled_prime(config: Config):
-    return jax.jit(lambda s, p: prime(s, p, config))
-
-
 def _round8(n: float) -> int:
     return int(math.ceil(n / 8.0) * 8)
 
@@ -261,7 +256,7 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
     times: list[float] = []
     regrows = 0
     t0 = time.perf_counter()
-    state = _compiled_prime(config)(state, params)
+    state = prime(state, params, config)
     bits = int(state.status)
     if bits:
         config, period, state, regrows = _handle(config, period, state, scene.state, params, bits, regrows,
@@ -356,7 +351,7 @@ def _handle(config, period, bad_state, start_state, params, bits, regrows, max_r
         regrows += 1
         state = _clear(resize(start_state, config))
         # the resized list is empty: build it now (the chunk need not start with a rebuild)
-        state = _compiled_refresh(config)(state) if primed else _compiled_prime(config)(state, params)
+        state = _compiled_refresh(config)(state) if primed else prime(state, params, config)
         bits = int(state.status)
         if not bits:
             return config, period, state, regrows

@@ -29,6 +29,8 @@ stored for the blocks. Every exchange of momentum is equal and opposite.
 
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 
@@ -192,9 +194,13 @@ def advance(state: State, params: Params, config: Config) -> State:
     return state.replace(status=state.status | check(state, params, config))
 
 
+@functools.partial(jax.jit, static_argnames=("config",))
 def prime(state: State, params: Params, config: Config) -> State:
     """Rebuild the list and fill accelerations / density rates (and the fluid load on the blocks)
-    for the initial positions."""
+    for the initial positions.
+
+    Compiled once per static ``config`` (``jax.jit``; inside another trace it is inlined): op by op
+    it took ~30 s on 2 CPU cores for a small coupled scene."""
     state = refresh(_place_block_particles(state, config), config)
     if config.n_fluid > 0:
         P = _fluid(config).prime(state.particles, state.nbrs, params, config)

@@ -10,7 +10,6 @@ import pytest
 import rockjax as rj
 from rockjax.blocks.rotation import quat_mul
 from rockjax.coupling import penalty
-from rockjax.driver import _compiled_prime
 from rockjax.scenes.coupled import block_drop
 
 
@@ -21,7 +20,7 @@ def submerged(x64):
     B = scene.state.blocks
     B = B.replace(x=B.x.at[0, 2].set(0.2), v=B.v.at[0].set([0.1, -0.2, -0.3]))  # centroid at the still level
     scene = scene.replace(state=scene.state.replace(blocks=B))
-    return scene, _compiled_prime(scene.config)(scene.state, scene.params)
+    return scene, rj.prime(scene.state, scene.params, scene.config)
 
 
 def test_load_gradient_matches_finite_differences(submerged):

@@ -5,6 +5,7 @@ semi-analytical wall term of ``Coupling.BOUNDARY_INTEGRAL``) are checked.
 Scenes are tiny (dx = 2.5 cm, < 1000 water particles) so the default suite stays short.
 """
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -12,9 +13,13 @@ import pytest
 import rockjax as rj
 from rockjax import Coupling
 from rockjax.coupling import penalty
-from rockjax.driver import _compiled_prime
+from rockjax.step import advance as _advance
 from rockjax.blocks.rotation import quat_matrix
 from rockjax.scenes.coupled import block_drop
+
+# one step, compiled per static config (op by op a coupled step took ~30-70 s on 2 cores)
+advance = jax.jit(_advance, static_argnums=2)
+accelerations = jax.jit(penalty.accelerations, static_argnums=3)
 
 
 def _submerged(coupling):
@@ -26,7 +31,7 @@ def _submerged(coupling):
     x_new = B.x.at[0, 2].set(0.15 - 0.05 + 0.05)
     scene = scene.replace(state=scene.state.replace(blocks=B.replace(x=x_new, v=B.v.at[0].set([0.1, -0.2, -0.5]),
                                                                      omega=B.omega.at[0].set([0.5, 1.0, -0.3]))))
-    state = _compiled_prime(scene.config)(scene.state, scene.params)  # rj.prime compiled (op by op: ~30 s)
+    state = rj.prime(scene.state, scene.params, scene.config)
     return scene, state
 
 
@@ -40,7 +45,7 @@ def test_newton_third_law(coupling):
     nf = config.n_fluid
     m = params.fluid.rho0 * P.vol[:nf]
     if coupling != Coupling.BOUNDARY_PARTICLES:  # the penalty (and with BOUNDARY_INTEGRAL the wall term)
-        acc, r, idx = penalty.accelerations(P, B, params, config)
+        acc, r, idx = accelerations(P, B, params, config)
         a = jnp.sum(acc, axis=1)
     else:
         from rockjax.sph import wcsph
@@ -51,7 +56,7 @@ def test_newton_third_law(coupling):
         a = wcsph.acceleration(only, P.v, P.rho, P.p, P.vol, P.kind, params, config)[:nf] - params.gravity
         a = jnp.where((P.kind[:nf] == rj.Kind.FLUID)[:, None], a, 0.0)
         assert config.coupling_guard  # the default: the penalty within dx/4 of a face is part of the exchange
-        a = a + jnp.sum(penalty.accelerations(P, B, params, config)[0], axis=1)
+        a = a + jnp.sum(accelerations(P, B, params, config)[0], axis=1)
     f = m[:, None] * a
     n_active = int(jnp.sum(jnp.any(f != 0, axis=1)))
     assert n_active > 20, f"the test needs particles in contact with the block ({n_active})"
@@ -77,7 +82,6 @@ def test_boundary_particle_load_of_a_step_is_the_reaction():
 
     scene, state = _submerged(Coupling.BOUNDARY_PARTICLES)
     config, params = scene.config.replace(coupling_guard=False), scene.params
-    from rockjax.step import advance
 
     new = advance(state, params, config)
     guarded = advance(state, params, scene.config)
@@ -95,7 +99,7 @@ def test_boundary_particle_load_of_a_step_is_the_reaction():
     P = new.particles
     fluid = (P.kind == rj.Kind.FLUID)[:, None]
     v_half = jnp.where(fluid, P.v - 0.5 * config.dt * P.a, P.v)
-    ref = boundary_particles.load(P.replace(v=v_half), new.nbrs, new.blocks, params, config)
+    ref = jax.jit(boundary_particles.load, static_argnums=4)(P.replace(v=v_half), new.nbrs, new.blocks, params, config)
     scale = float(jnp.linalg.norm(ref.force[0]))
     assert scale > 0.1, "the submerged box carries a load"
     np.testing.assert_allclose(np.asarray(new.coupling.force), np.asarray(ref.force), rtol=0, atol=1e-5 * scale)
@@ -148,7 +152,6 @@ def test_guard_keeps_water_out_of_fixed_blocks():
     water particle put 0.1 dx inside the fixed floor block gets the seed Eq 22 kick
     ``dt K_S (r0 - s)`` straight up (s = -0.1 dx, the particle at rest), and the fixed floor takes
     no load. Without ``guard_fixed`` it gets nothing beyond the SPH step."""
-    from rockjax.step import advance
 
     scene, state = _submerged(Coupling.BOUNDARY_PARTICLES)
     assert scene.config.coupling_guard and not scene.config.guard_fixed  # the defaults
@@ -183,7 +186,6 @@ def test_body_pair_list_is_the_block_part_of_the_wall_list():
     (``body_pair_capacity = 0``) to float32 round-off; a sub-list too short is reported
     (``BODY_PAIR_OVERFLOW``), never silently cut."""
     from rockjax.sph.neighbours import rebuild
-    from rockjax.step import advance
 
     scene, state = _submerged(Coupling.BOUNDARY_PARTICLES)
     config, params = scene.config, scene.params
@@ -202,7 +204,7 @@ def test_body_pair_list_is_the_block_part_of_the_wall_list():
     np.testing.assert_allclose(np.asarray(sub.coupling.force), np.asarray(whole.coupling.force), rtol=0, atol=1e-5 * scale)
     np.testing.assert_allclose(np.asarray(sub.coupling.torque), np.asarray(whole.coupling.torque), rtol=0,
                                atol=1e-5 * scale * 0.2)
-    _, short, status = rebuild(state.particles, config.replace(body_pair_capacity=m - 8))
+    _, short, status = jax.jit(rebuild, static_argnums=1)(state.particles, config.replace(body_pair_capacity=m - 8))
     assert int(status) & rj.Status.BODY_PAIR_OVERFLOW and int(short.body_count) == m
 
 
@@ -229,13 +231,14 @@ def test_seed_scheme_boundary_particle_load_is_the_reaction():
     seed forces with all pairs minus those with the block's pairs removed (an independent sum)."""
     from rockjax.sph import seed
     from rockjax.sph.neighbours import pairs
-    from rockjax.step import _advance_blocks, _place_block_particles, advance
+    from rockjax.step import _advance_blocks, _place_block_particles
 
     scene, _ = _submerged(Coupling.BOUNDARY_PARTICLES)
     config = scene.config.replace(scheme=rj.Scheme.SEED, coupling_guard=False)
     params = scene.params.replace(fluid=scene.params.fluid.replace(nu=1e-3))
     nf = config.n_fluid
 
+    @jax.jit
     def reaction(P, nbrs, B):
         P = seed.prime(P, nbrs, params, config)
         pr = pairs(P.x, P.kind, nbrs.idx, config)
@@ -243,16 +246,18 @@ def test_seed_scheme_boundary_particle_load_is_the_reaction():
         a_b = (seed.forces(pr, P.v, P.rho, P.p, P.vol, P.kind, params, config)
                - seed.forces(without, P.v, P.rho, P.p, P.vol, P.kind, params, config))[:nf]
         f = params.fluid.rho0 * P.vol[:nf, None] * a_b
-        return -jnp.sum(f, 0), -jnp.sum(jnp.cross(P.x[:nf] - B.x[0], f), 0), float(jnp.sum(jnp.linalg.norm(f, axis=1)))
+        return -jnp.sum(f, 0), -jnp.sum(jnp.cross(P.x[:nf] - B.x[0], f), 0), jnp.sum(jnp.linalg.norm(f, axis=1))
 
     state = rj.prime(scene.state, params, config)
     F, T, scale = reaction(state.particles, state.nbrs, state.blocks)
+    scale = float(scale)
     assert scale > 0.1 and float(F[2]) > 0, "the submerged box carries an upward load"
     np.testing.assert_allclose(np.asarray(state.coupling.force[0]), np.asarray(F), rtol=0, atol=1e-5 * scale)
     np.testing.assert_allclose(np.asarray(state.coupling.torque[0]), np.asarray(T), rtol=0, atol=1e-5 * scale * 0.2)
     new = advance(state, params, config)
-    placed = _place_block_particles(_advance_blocks(state, params, config), config)
+    placed = jax.jit(lambda s: _place_block_particles(_advance_blocks(s, params, config), config))(state)
     F, T, scale = reaction(placed.particles, placed.nbrs, placed.blocks)
+    scale = float(scale)
     np.testing.assert_allclose(np.asarray(new.coupling.force[0]), np.asarray(F), rtol=0, atol=1e-5 * scale)
     np.testing.assert_allclose(np.asarray(new.coupling.torque[0]), np.asarray(T), rtol=0, atol=1e-5 * scale * 0.2)
 

@@ -19,7 +19,6 @@ import numpy as np
 import pytest
 
 import rockjax as rj
-from rockjax.driver import _compiled_prime
 
 U = 0.2
 DX = 0.02
@@ -44,12 +43,11 @@ def period_means(scene):
         return jnp.sum(jnp.where(fluid, P.vol * P.v[:, 0], 0.0)) / jnp.sum(jnp.where(fluid, P.vol, 0.0))
 
     roll = jax.jit(rj.make_rollout(cfg, 2 * per_period, checkpoint=False, observe=mean_u))
-    prime = _compiled_prime(cfg)  # rj.prime compiled (op by op: ~30 s)
 
     def run(wall_viscosity):
         fl = scene.params.fluid
         params = scene.params.replace(fluid=fl.replace(wall_viscosity=jnp.asarray(wall_viscosity, fl.h.dtype)))
-        out, u = roll(prime(scene.state, params), params)
+        out, u = roll(rj.prime(scene.state, params, cfg), params)
         assert int(out.status) == 0, int(out.status)
         u = np.asarray(u) / U
         return float(u[:per_period].mean()), float(u[per_period:].mean()), u

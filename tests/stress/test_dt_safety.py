@@ -69,10 +69,9 @@ def test_params_change_under_fixed_dt_stops_with_step(dam):
     # by hand: the bit first appears at e.step
     import jax
 
-    from rockjax.driver import _compiled_prime
 
     one = jax.jit(rj.make_step(scene.config))
-    s = _compiled_prime(scene.config)(scene.state, scene.params)  # rj.prime compiled (op by op: ~30 s)
+    s = rj.prime(scene.state, scene.params, scene.config)
     first = None
     for _ in range(e.step):
         s = one(s, scene.params)

@@ -82,12 +82,11 @@ def test_scheduled_step_replays_the_rollout():
     # with it must reproduce make_rollout (same rebuilds at block starts and on displacement)
     import jax
 
-    from rockjax.driver import _compiled_prime
     from rockjax.rollout import make_rollout, scheduled_step
 
     scene = rj.scenes.dam_break(dx=0.1, column_length=0.3, column_width=0.3, column_height=0.5, tank_length=0.8,
                                 tank_width=0.3)
-    s0 = _compiled_prime(scene.config)(scene.state, scene.params)  # rj.prime compiled (op by op: ~30 s)
+    s0 = rj.prime(scene.state, scene.params, scene.config)
     n_blocks = 3
     ref, _ = jax.jit(make_rollout(scene.config, n_blocks, checkpoint=False))(s0, scene.params)
     step = jax.jit(scheduled_step(scene.config))
