@@ -7,7 +7,11 @@ test, ``tests/coupling/test_floating.py``, mixes the load's bias with a hardly d
 around it was removed where the box is, so the still level stays at ``water_depth`` and Archimedes
 gives ``rho g x (submerged volume)``. The step's load on the block (``state.coupling.force``) is
 averaged over every step from t_end/3 to t_end (the water's acoustic noise is +-50 % step to
-step). ``ratio`` = mean load / Archimedes.
+step). ``ratio`` = mean load / Archimedes. Also averaged: ``n_within_r0``, the water particles within
+the penalty's interaction distance r0 of the box (with boundary particles and BOUNDARY_INTEGRAL the
+penalty is a guard at r0 = dx/4, where no water should sit), and with BOUNDARY_INTEGRAL
+``wall_term_N``, the wall term's share of the load (the load with the guard's constants zeroed,
+evaluated on each step's end state; the rest is the guard's).
 
     python experiments/held_box_load.py --coupling penalty boundary_particles boundary_integral
     python experiments/held_box_load.py --coupling boundary_integral --box 0.24 0.24 0.08 --tank 0.6 0.6
@@ -29,6 +33,7 @@ def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: fl
     import jax.numpy as jnp
 
     import rockjax as rj
+    from rockjax.coupling import penalty
     from rockjax.rollout import scheduled_step
 
     sc = rj.scenes.floating_box(dx=dx, box_size=box, tank_size=tank, water_depth=depth, coupling=rj.Coupling(coupling),
@@ -41,23 +46,38 @@ def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: fl
     n = int(round(t_end / config.dt))
     n0 = n // 3
 
+    cp = params.coupling
+    r0 = cp.interaction_distance
+    wall_only = params.replace(coupling=cp.replace(penalty_stiffness=0.0 * cp.penalty_stiffness,
+                                                   penalty_damping=0.0 * cp.penalty_damping))
+    nf = config.n_fluid
+    bi = config.coupling == rj.Coupling.BOUNDARY_INTEGRAL
+
+    def measures(s):
+        x = s.particles.x[:nf]
+        sd = jnp.max(jnp.abs(x - s.blocks.x[0]) - 0.5 * jnp.asarray(box, x.dtype), axis=1)  # the held box is axis-aligned
+        n_in = jnp.sum((sd < r0) & (s.particles.kind[:nf] == rj.Kind.FLUID))
+        wall = penalty.load(s.particles, s.blocks, wall_only, config).force[0, 2] if bi else 0.0
+        return jnp.stack([s.coupling.force[0, 2], n_in.astype(x.dtype), jnp.asarray(wall, x.dtype)])
+
     def body(carry, k):
         s, total = carry
         s = one(s, params)
-        return (s, total + jnp.where(k >= n0, s.coupling.force[0, 2], 0.0)), None
+        return (s, total + jnp.where(k >= n0, measures(s), 0.0)), None
 
     t0 = time.perf_counter()
     s0 = rj.prime(sc.state, params, config)
     load0 = float(s0.coupling.force[0, 2])
-    (s, total), _ = jax.jit(lambda s: jax.lax.scan(body, (s, jnp.zeros((), s.particles.x.dtype)), jnp.arange(n)))(s0)
+    (s, total), _ = jax.jit(lambda s: jax.lax.scan(body, (s, jnp.zeros((3,), s.particles.x.dtype)), jnp.arange(n)))(s0)
     bits = int(s.status)
     if bits:
         raise RuntimeError(f"held box ({coupling}): status {rj.Status.describe(bits)}")
-    mean = float(total) / (n - n0)
+    mean, n_within, wall_term = (float(v) / (n - n0) for v in total)
     return {"bench": "held_box_load", "coupling": coupling, "dx": dx, "h_factor": h_factor, "box": list(box),
             "tank": list(tank), "draft": draft, "n_fluid": config.n_fluid, "steps": n, "t_end": n * config.dt,
             "archimedes_N": float(archimedes), "load_t0_N": load0, "load_mean_N": mean, "ratio": mean / float(archimedes),
-            "ratio_t0": load0 / float(archimedes), "wall_s": round(time.perf_counter() - t0, 1),
+            "ratio_t0": load0 / float(archimedes), "n_within_r0": round(n_within, 2), "r0_dx": float(r0) / dx,
+            "wall_term_N": wall_term if bi else None, "wall_s": round(time.perf_counter() - t0, 1),
             "date": datetime.date.today().isoformat(), "load": round(os.getloadavg()[0], 2)}
 
 

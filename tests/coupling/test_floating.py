@@ -9,7 +9,14 @@ Slow: ~3 min per coupling on 2 busy cores (measured 2026-11-27).
 
 ``Coupling.BOUNDARY_INTEGRAL`` (semi-analytical wall term, 2026-11-27): measured -6.0 % (xfail, not
 strict: the heave is hardly damped, so the mean moves with the window); the box twice as wide
--15.7 % (mean over 2.5-5 s): the bias is over the face, not at its edges.
+-15.7 % (mean over 2.5-5 s): the bias is over the face, not at its edges. Held still at the draft
+(``experiments/held_box_load.py``, 2026-11-27) its load is +9.4 % (+18.8 % twice as wide), of which the
+wall term gives 4.82 N of 6.18 N (12.2 of 26.9 N twice as wide): the rest comes from the dx/4 guard, which
+5.7 (13.2) water particles touch on average; under the wide box the first layer's pressure sinks to
+229 Pa where the far field has 518 Pa at that depth. Scaling the wall term's density rate by 0.9 / 1.1
+moves the guard's share (32 % / 10 % of the load) but not the load (+12.7 % / +10.0 %): the excess is
+not the guard's (the load on a held body in still water is fixed by where the water sits, however the
+force is passed on); without that density rate the first layer's pressure goes negative.
 
 Penalty (seed Eq 22) coupling: measured +34 % (strict xfail); with the box twice as wide (0.24 m,
 tank 0.6 m) +19.7 % (2026-11-27): much of the bias comes from the box's edges. Why, from a diagnostic run
