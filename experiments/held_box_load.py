@@ -11,7 +11,11 @@ step). ``ratio`` = mean load / Archimedes. Also averaged: ``n_within_r0``, the w
 the penalty's interaction distance r0 of the box (with boundary particles and BOUNDARY_INTEGRAL the
 penalty is a guard at r0 = dx/4, where no water should sit), and with BOUNDARY_INTEGRAL
 ``wall_term_N``, the wall term's share of the load (the load with the guard's constants zeroed,
-evaluated on each step's end state; the rest is the guard's).
+evaluated on each step's end state; the rest is the guard's); ``fill_under``, the water particles in the
+3 dx thick slab under the bottom face over the particles the lattice puts there (the t = 0 value is 1):
+where the water sits decides the load of a held body in still water (momentum balance: the load is
+the pressure below the slab times the area minus the slab's weight), so a slab short of water by a
+fraction e carries e x 3 dx / draft more load.
 
     python experiments/held_box_load.py --coupling penalty boundary_particles boundary_integral
     python experiments/held_box_load.py --coupling boundary_integral --box 0.24 0.24 0.08 --tank 0.6 0.6
@@ -58,7 +62,11 @@ def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: fl
         sd = jnp.max(jnp.abs(x - s.blocks.x[0]) - 0.5 * jnp.asarray(box, x.dtype), axis=1)  # the held box is axis-aligned
         n_in = jnp.sum((sd < r0) & (s.particles.kind[:nf] == rj.Kind.FLUID))
         wall = penalty.load(s.particles, s.blocks, wall_only, config).force[0, 2] if bi else 0.0
-        return jnp.stack([s.coupling.force[0, 2], n_in.astype(x.dtype), jnp.asarray(wall, x.dtype)])
+        rel = x - s.blocks.x[0]
+        under = (jnp.all(jnp.abs(rel[:, :2]) < 0.5 * jnp.asarray(box[:2], x.dtype), axis=1)
+                 & (rel[:, 2] < -0.5 * box[2]) & (rel[:, 2] > -0.5 * box[2] - 3 * dx))
+        return jnp.stack([s.coupling.force[0, 2], n_in.astype(x.dtype), jnp.asarray(wall, x.dtype),
+                          jnp.sum(under).astype(x.dtype)])
 
     def body(carry, k):
         s, total = carry
@@ -68,16 +76,17 @@ def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: fl
     t0 = time.perf_counter()
     s0 = rj.prime(sc.state, params, config)
     load0 = float(s0.coupling.force[0, 2])
-    (s, total), _ = jax.jit(lambda s: jax.lax.scan(body, (s, jnp.zeros((3,), s.particles.x.dtype)), jnp.arange(n)))(s0)
+    (s, total), _ = jax.jit(lambda s: jax.lax.scan(body, (s, jnp.zeros((4,), s.particles.x.dtype)), jnp.arange(n)))(s0)
     bits = int(s.status)
     if bits:
         raise RuntimeError(f"held box ({coupling}): status {rj.Status.describe(bits)}")
-    mean, n_within, wall_term = (float(v) / (n - n0) for v in total)
+    mean, n_within, wall_term, n_under = (float(v) / (n - n0) for v in total)
+    nominal = box[0] * box[1] * 3 * dx / dx**3  # water particles a 3 dx slab under the bottom face holds on the lattice
     return {"bench": "held_box_load", "coupling": coupling, "dx": dx, "h_factor": h_factor, "box": list(box),
             "tank": list(tank), "draft": draft, "n_fluid": config.n_fluid, "steps": n, "t_end": n * config.dt,
             "archimedes_N": float(archimedes), "load_t0_N": load0, "load_mean_N": mean, "ratio": mean / float(archimedes),
             "ratio_t0": load0 / float(archimedes), "n_within_r0": round(n_within, 2), "r0_dx": float(r0) / dx,
-            "wall_term_N": wall_term if bi else None, "wall_s": round(time.perf_counter() - t0, 1),
+            "wall_term_N": wall_term if bi else None, "fill_under": n_under / nominal, "wall_s": round(time.perf_counter() - t0, 1),
             "date": datetime.date.today().isoformat(), "load": round(os.getloadavg()[0], 2)}
 
 

@@ -16,7 +16,11 @@ wall term gives 4.82 N of 6.18 N (12.2 of 26.9 N twice as wide): the rest comes 
 229 Pa where the far field has 518 Pa at that depth. Scaling the wall term's density rate by 0.9 / 1.1
 moves the guard's share (32 % / 10 % of the load) but not the load (+12.7 % / +10.0 %): the excess is
 not the guard's (the load on a held body in still water is fixed by where the water sits, however the
-force is passed on); without that density rate the first layer's pressure goes negative.
+force is passed on); without that density rate the first layer's pressure goes negative. The 3 dx slab
+under the face holds 0.97 of the lattice's water (penalty 1.01 / 1.08 twice as wide; boundary particles
+0.99): signs as the loads', sizes not (a slab short by e would carry only e x 3 dx / draft more load:
++4.4 % vs +9.4 %), so where the water sits does not explain it alone; the pressure under the face is
+not hydrostatic (under the wide box the penalty's first layer has 678 Pa vs 518 Pa far away).
 
 Penalty (seed Eq 22) coupling: measured +34 % (strict xfail); with the box twice as wide (0.24 m,
 tank 0.6 m) +19.7 % (2026-11-27): much of the bias comes from the box's edges. Why, from a diagnostic run
