@@ -59,10 +59,10 @@ def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: fl
 
     def measures(s):
         x = s.particles.x[:nf]
-        sd = jnp.max(jnp.abs(x - s.blocks.x[0]) - 0.5 * jnp.asarray(box, x.dtype), axis=1)  # the held box is axis-aligned
+        rel = x - s.blocks.x[0]
+        sd = jnp.max(jnp.abs(rel) - 0.5 * jnp.asarray(box, x.dtype), axis=1)  # the held box is axis-aligned
         n_in = jnp.sum((sd < r0) & (s.particles.kind[:nf] == rj.Kind.FLUID))
         wall = penalty.load(s.particles, s.blocks, wall_only, config).force[0, 2] if bi else 0.0
-        rel = x - s.blocks.x[0]
         under = (jnp.all(jnp.abs(rel[:, :2]) < 0.5 * jnp.asarray(box[:2], x.dtype), axis=1)
                  & (rel[:, 2] < -0.5 * box[2]) & (rel[:, 2] > -0.5 * box[2] - 3 * dx))
         return jnp.stack([s.coupling.force[0, 2], n_in.astype(x.dtype), jnp.asarray(wall, x.dtype),

@@ -69,7 +69,6 @@ def test_params_change_under_fixed_dt_stops_with_step(dam):
     # by hand: the bit first appears at e.step
     import jax
 
-
     one = jax.jit(rj.make_step(scene.config))
     s = rj.prime(scene.state, scene.params, scene.config)
     first = None
