@@ -70,3 +70,22 @@ def test_grad_density_finite_and_matches_fd(scene):
     scale = 1e-2 * 0.2894 / (0.01 * 2650)
     assert abs(gd[1] - fd) <= max(1e-2 * abs(fd), 1e-3 * scale), (gd[1], fd)
     assert gd[0] == 0.0  # the FIXED slope's density does not matter
+
+
+def test_tied_max_derivative_averages_ties_and_never_divides_by_zero(x64):
+    """``rotation.tied_max`` (the narrow phase's max): at an exact tie its derivative is
+    ``jnp.max``'s (the mean of the tied tangents); entries within 4 ulps of the max tie too (they
+    may be one value rounded twice), where ``jnp.max`` takes only the larger one; ``tied_min`` mirrors it."""
+    from rockjax.blocks.rotation import tied_max, tied_min
+
+    t = jnp.asarray([1.0, 3.0, 5.0])
+    exact = jnp.asarray([1.0, 1.0, 0.5])
+    near = jnp.asarray([1.0, np.nextafter(1.0, 2.0), 0.5])
+    for x, want in ((exact, 2.0), (near, 2.0)):
+        v, dv = jax.jvp(tied_max, (x,), (t,))
+        assert float(v) == float(jnp.max(x)) and float(dv) == want
+    assert float(jax.jvp(jnp.max, (near,), (t,))[1]) == 3.0  # the one it replaces
+    v, dv = jax.jvp(lambda x: tied_min(x, 0), (-exact[:, None],), (t[:, None],))
+    assert float(v[0]) == -1.0 and float(dv[0]) == 2.0
+    g = jax.grad(lambda x: tied_max(x))(near)  # the transpose (reverse mode) of the same rule
+    np.testing.assert_allclose(np.asarray(g), [0.5, 0.5, 0.0])

@@ -67,7 +67,7 @@ from .broadphase import candidate_pairs, pairs_are_static
 from .fcp import _first_k, fcp_pair, gap_along, sat_start, vertex_directions
 from .joint_water import joint_water_load
 from .model import BlockConfig, BlockParams, BlockState, Motion, block_mass, world_planes, world_vertices
-from .rotation import project, safe_norm
+from .rotation import project, safe_norm, tied_max, tied_min
 
 __all__ = ["ContactHistory", "contact_forces", "pair_contacts", "with_history"]
 
@@ -102,7 +102,7 @@ def _exit_distance(X, N, D, fm, u):
     den = project(N, u)  # [F]
     ok = fm & (den > 1e-3)
     t = (D[None, :] - project(X, N)) / jnp.where(ok, den, 1.0)[None, :]
-    return jnp.min(jnp.where(ok[None, :], t, 1e30), -1)
+    return tied_min(jnp.where(ok[None, :], t, 1e30), -1)
 
 
 def _tangent_basis(n):
@@ -256,8 +256,8 @@ def _clipped_centre(X, e, em, N, D, fm):
     t = s0 / den
     enter = fm & (s0 > 0) & (s1 <= 0)
     leave = fm & (s0 <= 0) & (s1 > 0)
-    t0 = jnp.max(jnp.where(enter, t, 0.0), -1)
-    t1 = jnp.min(jnp.where(leave, t, 1.0), -1)
+    t0 = tied_max(jnp.where(enter, t, 0.0), -1)
+    t1 = tied_min(jnp.where(leave, t, 1.0), -1)
     ok = em & ~jnp.any(out, -1) & (t0 < t1)
     p0 = a0 + t0[:, None] * (a1 - a0)
     p1 = a0 + t1[:, None] * (a1 - a0)

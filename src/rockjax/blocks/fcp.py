@@ -28,7 +28,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 from jax import lax
 
-from .rotation import project
+from .rotation import project, tied_max, tied_min
 
 __all__ = ["fcp_pair", "gap_along", "sat_start", "SAT_START_LIMIT"]
 
@@ -68,21 +68,35 @@ def _gaps(normals_t, Xi, mi, Xj, mj):
     """:func:`gap_along` of component-major normals [3,C]."""
     pi = _project_t(Xi, normals_t)  # [V, C]
     pj = _project_t(Xj, normals_t)
-    max_i = jnp.max(jnp.where(mi[:, None], pi, -_BIG), 0)
-    min_i = jnp.min(jnp.where(mi[:, None], pi, _BIG), 0)
-    max_j = jnp.max(jnp.where(mj[:, None], pj, -_BIG), 0)
-    min_j = jnp.min(jnp.where(mj[:, None], pj, _BIG), 0)
+    max_i = tied_max(jnp.where(mi[:, None], pi, -_BIG), 0)
+    min_i = tied_min(jnp.where(mi[:, None], pi, _BIG), 0)
+    max_j = tied_max(jnp.where(mj[:, None], pj, -_BIG), 0)
+    min_j = tied_min(jnp.where(mj[:, None], pj, _BIG), 0)
     return min_j - max_i, min_i - max_j
 
 
-def _best(cands, valid, Xi, mi, Xj, mj):
-    """The candidate [3,C] (in its better orientation) with the largest gap: ``(normal [3], gap [])``."""
+def _best(cands, valid, Xi, mi, Xj, mj, tie):
+    """The candidate [3,C] (in its better orientation) with the largest gap: ``(normal [3], gap [])``.
+
+    Candidates within ``tie`` [m] of the largest gap tie, and the FIRST of them in candidate order
+    wins. A plain argmax would let round-off pick among them (a box resting flat on a slope: its
+    face normal, the slope's and the carried plane give the same gap), and the programs of a
+    forward run and of its gradient round differently: the gradient then followed another normal
+    than the run it differentiates (measured: a -O0 compile's gradient 30x off the finite
+    difference). ``tie`` is 16 ulps of the coordinates (:func:`_tie_tolerance`)."""
     gp, gm = _gaps(cands, Xi, mi, Xj, mj)
     g = jnp.maximum(gp, gm)
     sign = jnp.where(gp >= gm, 1.0, -1.0).astype(cands.dtype)
     g = jnp.where(valid, g, -_BIG)
-    k = jnp.argmax(g)
+    k = jnp.argmax(g >= jnp.max(g) - tie)
     return cands[:, k] * sign[k], g[k]
+
+
+def _tie_tolerance(Xi, mi, Xj, mj):
+    """[] m: gaps closer than this tie in :func:`_best` -- 16 ulps of the largest vertex
+    coordinate of the pair (what a projection's round-off scales with), from stopped values."""
+    big = jnp.maximum(jnp.max(jnp.abs(Xi) * mi[:, None]), jnp.max(jnp.abs(Xj) * mj[:, None]))
+    return lax.stop_gradient(16 * jnp.finfo(Xi.dtype).eps * big)
 
 
 def vertex_directions(edges, edge_mask, n_vertices: int, edge_direction=None, n_directions: int | None = None):
@@ -283,27 +297,29 @@ def fcp_pair(Xi, mi, Ni, fmi, ei, emi, Xj, mj, Nj, fmj, ej, emj, ci, cj, n_prev,
         init.append(cr)
         init_ok.append(cr_ok)
     init, init_ok = _normalise(jnp.concatenate(init, 1), jnp.concatenate(init_ok, 0), 1e-30)
-    n0, g0 = _best(init, init_ok, sXi, mi, sXj, mj)
+    tie = _tie_tolerance(sXi, mi, sXj, mj)
+    n0, g0 = _best(init, init_ok, sXi, mi, sXj, mj, tie)
 
     def body(_, carry):
         n, g, changes, over, over_c = carry
         c, ok, o, oc = _local_candidates(n, sXi, mi, sNti, fmi, di, sXj, mj, sNtj, fmj, dj, sscale, support_edges,
                                          crosses)
-        n1, g1 = _best(c, ok, sXi, mi, sXj, mj)
+        n1, g1 = _best(c, ok, sXi, mi, sXj, mj, tie)
         changes = changes + (g1 > g + 1e-7 * sscale).astype(jnp.int32)
         return n1, g1, changes, over | o, over_c | oc
 
     no = jnp.zeros((), bool)
     n_s, _, changes, over, over_c = lax.fori_loop(0, iterations, body, (n0, g0, jnp.int32(0), no, no))
-    # differentiable last round on the live geometry (ties pick a geometric candidate, not n_s)
+    # differentiable last round on the live geometry (ties pick a geometric candidate, not n_s: it
+    # comes last)
     live_i = (_direction_vectors(Xi, ei, dirs_i), *di[1:])
     live_j = (_direction_vectors(Xj, ej, dirs_j), *dj[1:])
     c, ok, o, oc = _local_candidates(n_s, Xi, mi, Ni.T, fmi, live_i, Xj, mj, Nj.T, fmj, live_j, sscale,
                                      support_edges, crosses)
-    n, _ = _best(c, ok, Xi, mi, Xj, mj)
+    n, _ = _best(c, ok, Xi, mi, Xj, mj, tie)
     pi = project(Xi, n)
     pj = project(Xj, n)
-    sup_i = jnp.max(jnp.where(mi, pi, -_BIG))
-    sup_j = jnp.min(jnp.where(mj, pj, _BIG))
+    sup_i = tied_max(jnp.where(mi, pi, -_BIG))
+    sup_j = tied_min(jnp.where(mj, pj, _BIG))
     return dict(normal=n, gap=sup_j - sup_i, support_i=sup_i, support_j=sup_j, changes=changes,
                 support_overflow=over | o, cross_overflow=over_c | oc)

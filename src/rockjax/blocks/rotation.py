@@ -1,5 +1,6 @@
 """Unit-quaternion helpers for block orientations (jit/vmap/grad-safe), a host constructor, and
-the small vector helpers the narrow phase shares (``safe_norm``, ``project``).
+the small vector helpers the narrow phase shares (``safe_norm``, ``project``, ``tied_max``,
+``tied_min``).
 
 Convention: ``q = (w, x, y, z)``, a unit quaternion rotating BODY-frame vectors into the WORLD
 frame: ``x_world = R(q) @ x_body + centroid``.
@@ -7,10 +8,14 @@ frame: ``x_world = R(q) @ x_body + centroid``.
 
 from __future__ import annotations
 
+import functools
+
+import jax
 import numpy as np
 import jax.numpy as jnp
 
-__all__ = ["quat_matrix", "quat_mul", "quat_integrate", "quat_from_axis_angle", "safe_norm", "project"]
+__all__ = ["quat_matrix", "quat_mul", "quat_integrate", "quat_from_axis_angle", "safe_norm", "project",
+           "tied_max", "tied_min"]
 
 
 def safe_norm(v, axis=-1, keepdims=False, eps=1e-30):
@@ -18,6 +23,34 @@ def safe_norm(v, axis=-1, keepdims=False, eps=1e-30):
     s = jnp.sum(v * v, axis=axis, keepdims=keepdims)
     pos = s > eps
     return jnp.where(pos, jnp.sqrt(jnp.where(pos, s, 1.0)), 0.0)
+
+
+@functools.partial(jax.custom_jvp, nondiff_argnums=(1,))
+def tied_max(x, axis: int = -1):
+    """``jnp.max(x, axis)`` whose derivative cannot be NaN.
+
+    ``jnp.max``'s derivative averages the tangents of the entries EQUAL to the max, dividing by
+    their count. XLA may compute ``x`` twice, once for the max and once for that comparison, and
+    round the two copies differently (an unoptimised CPU compile did, for the FCP gap): the count
+    is then 0 and the gradient NaN. Here the entries within 4 ulps of the max tie, and the argmax
+    always counts, so the count is at least 1; at exact ties the derivative is ``jnp.max``'s.
+    """
+    return jnp.max(x, axis)
+
+
+@tied_max.defjvp
+def _tied_max_jvp(axis, primals, tangents):
+    (x,), (t,) = primals, tangents
+    x, t = jnp.moveaxis(x, axis, -1), jnp.moveaxis(t, axis, -1)
+    m = jnp.max(x, -1, keepdims=True)
+    first = jnp.arange(x.shape[-1]) == jnp.argmax(x, -1)[..., None]
+    w = ((x >= m - 4 * jnp.finfo(x.dtype).eps * jnp.abs(m)) | first).astype(x.dtype)
+    return m[..., 0], jnp.sum(t * w, -1) / jnp.sum(w, -1)
+
+
+def tied_min(x, axis: int = -1):
+    """``jnp.min(x, axis)`` with :func:`tied_max`'s NaN-free derivative."""
+    return -tied_max(-x, axis)
 
 
 def project(X, N):

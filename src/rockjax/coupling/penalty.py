@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from ..blocks.rotation import quat_matrix
+from ..blocks.rotation import quat_matrix, tied_max
 from ..sph.kernels import plane_integrals
 from ..types import Config, Coupling, CouplingState, Kind, Params, Particles
 
@@ -219,7 +219,7 @@ def guard_fixed(P: Particles, blocks, params: Params, config: Config) -> Particl
     offsets = jnp.where(blocks.shape.face_mask[fixed], blocks.shape.face_offset[fixed], jnp.inf)
     r = _min_image(x[:, None, :] - blocks.x[fixed][None], config)  # [nf, Bf, 3]
     s_all = jnp.einsum("nbi,bfi->nbf", r, normals) - offsets[None]  # [nf, Bf, F] signed distances
-    s = jnp.max(s_all, axis=-1)
+    s = tied_max(s_all, -1)
     n = jnp.take_along_axis(normals[None], jnp.argmax(s_all, axis=-1)[..., None, None], axis=2)[:, :, 0]
     d = cp.interaction_distance - s
     mag = cp.penalty_stiffness * d - cp.penalty_damping * jnp.einsum("ni,nbi->nb", v, n)  # fixed: v_surf = 0
