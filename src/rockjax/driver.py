@@ -122,11 +122,6 @@ def _compiled_single_step(config: Config, period: int):
     return jax.jit(scheduled_step(config, period=period))
 
 
-@functools.lru_cache(maxsize=8)
-def _compiled_refresh(config: Config):
-    return jax.jit(lambda s: refresh(s, config))
-
-
 def _first_bad_step(config: Config, period: int, start_state: State, params, bad_state: State, mask: int) -> int:
     """The first step whose status has a bit of ``mask``: the chunk from ``start_state`` (status
     clear) replayed one step at a time (only after a chunk failed). Falls back to the chunk's
@@ -351,7 +346,7 @@ def _handle(config, period, bad_state, start_state, params, bits, regrows, max_r
         regrows += 1
         state = _clear(resize(start_state, config))
         # the resized list is empty: build it now (the chunk need not start with a rebuild)
-        state = _compiled_refresh(config)(state) if primed else prime(state, params, config)
+        state = refresh(state, config) if primed else prime(state, params, config)
         bits = int(state.status)
         if not bits:
             return config, period, state, regrows

@@ -46,10 +46,12 @@ def _fluid(config: Config):
     return wcsph if config.scheme == Scheme.WCSPH else seed
 
 
+@functools.partial(jax.jit, static_argnames=("config",))
 def refresh(state: State, config: Config) -> State:
     """Sort particles by cell and rebuild the neighbour list; OR its status bits into the state.
 
-    A no-op in a scene without particles.
+    A no-op in a scene without particles. Compiled once per static ``config`` (``jax.jit``, as
+    ``prime``; inside another trace it is inlined).
     """
     if not config.has_particles:
         return state
