@@ -89,3 +89,48 @@ def test_tied_max_derivative_averages_ties_and_never_divides_by_zero(x64):
     assert float(v[0]) == -1.0 and float(dv[0]) == 2.0
     g = jax.grad(lambda x: tied_max(x))(near)  # the transpose (reverse mode) of the same rule
     np.testing.assert_allclose(np.asarray(g), [0.5, 0.5, 0.0])
+
+
+def test_common_plane_tangent_does_not_depend_on_the_compile(x64):
+    """A box resting flat on a 30 deg slope (1e-5 m overlap): its face normal and the slope's tie in
+    the common-plane choice. The tangent of (normal, gap) w.r.t. the box's pose must be finite and
+    the same whether XLA optimises the program or not (``jax_disable_most_optimizations``): before
+    the tie rule of ``fcp._best`` and ``tied_max`` (2026-11-27) round-off chose: here both
+    compiles took the slope's normal (tangent 0; checked on the old code), in the incline rollout the
+    unoptimised one did while the optimised took the box's, its gap tangent was inf, and a blocks
+    gradient went 30x off. Now ties go to the first candidate: i's (the box's) face normals."""
+    from fcp_cases import fcp_fn, padded
+    from rockjax.blocks import geometry as geo
+
+    th = np.radians(30.0)
+    n = np.array([np.sin(th), 0.0, np.cos(th)])
+    rot = np.array([[np.cos(th), 0.0, np.sin(th)], [0.0, 1.0, 0.0], [-np.sin(th), 0.0, np.cos(th)]])
+    box = geo.ConvexPolyhedron.from_vertices(geo.box(0.2, 0.2, 0.1).vertices @ rot.T + (0.05 - 1e-5) * n)
+    slope = geo.slope(4.0, 2.0, 0.2, 30.0)
+    bi, bj = padded(box), padded(slope)
+    q0 = jnp.asarray([1.0, 0.0, 0.0, 0.0])
+    xi, xj = jnp.asarray(box.centroid_world), jnp.asarray(slope.centroid_world)
+    run = fcp_fn(0)
+
+    def f(x, q):
+        out = run(bi, q, x, bj, q0, xj, jnp.asarray(n), jnp.asarray(True))
+        return out["normal"], out["gap"]
+
+    primal = f(xi, q0)
+    assert np.allclose(np.asarray(primal[0]), -n) and abs(float(primal[1]) + 1e-5) < 1e-9  # box bottom = -(slope top): a tie
+    rng = np.random.default_rng(0)
+    dx, dq = jnp.asarray(rng.normal(size=3)), jnp.asarray(rng.normal(size=4))
+    flag = "jax_disable_most_optimizations"
+    old = jax.config.values[flag]
+    tangents = []
+    try:
+        for off in (False, True):
+            jax.config.update(flag, off)
+            tangents.append(jax.jit(lambda x, q, a, b: jax.jvp(f, (x, q), (a, b))[1])(xi, q0, dx, dq))
+    finally:
+        jax.config.update(flag, old)
+    (n_opt, g_opt), (n_o0, g_o0) = tangents
+    assert np.all(np.isfinite(np.asarray(n_o0))) and np.isfinite(float(g_o0))
+    assert float(jnp.linalg.norm(n_opt)) > 0.1  # the box's normal (it turns with the box), not the slope's
+    np.testing.assert_allclose(np.asarray(n_o0), np.asarray(n_opt), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(float(g_o0), float(g_opt), rtol=1e-9, atol=1e-12)
