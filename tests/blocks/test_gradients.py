@@ -117,7 +117,8 @@ def test_common_plane_tangent_does_not_depend_on_the_compile(x64):
         return out["normal"], out["gap"]
 
     primal = f(xi, q0)
-    assert np.allclose(np.asarray(primal[0]), -n) and abs(float(primal[1]) + 1e-5) < 1e-9  # box bottom = -(slope top): a tie
+    # the box's bottom normal = minus the slope's top normal: a tie
+    assert np.allclose(np.asarray(primal[0]), -n) and abs(float(primal[1]) + 1e-5) < 1e-9
     rng = np.random.default_rng(0)
     dx, dq = jnp.asarray(rng.normal(size=3)), jnp.asarray(rng.normal(size=4))
     flag = "jax_disable_most_optimizations"
