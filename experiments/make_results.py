@@ -889,6 +889,25 @@ def sec_held_box(doc: Doc):
                   r.get("load"), r.get("date")] for r in recs]))
 
 
+def sec_wall_consistency(doc: Doc):
+    doc.h("BOUNDARY_INTEGRAL's zeroth-order consistency under a held box (issue 5)")
+    recs = doc.records("wall_consistency.jsonl",
+                       "python experiments/wall_consistency.py --out experiments/results/wall_consistency.jsonl")
+    if recs is None:
+        return
+    doc.p("`experiments/wall_consistency.py`: the wide held box of the section above (BOUNDARY_INTEGRAL). For the "
+          "water particles under the middle of its bottom face, per band of distance s from the face: `D_z` = "
+          "sum_j V_j dW_ij/dz + A(s), the discrete kernel-gradient sum's mismatch with the analytic wall integral "
+          "A(s) = P_f that the wall term adds (0 would let a uniform pressure cancel; `D/A` its share of A), the mean "
+          "pressure, and the spurious acceleration -2 p D_z / rho it leaves (g = 9.81 m/s^2 for scale); `t0` on the "
+          "lattice, `end` over 10 snapshots of the last 200 steps (D_z's spread there is +-2-4 1/m: particle to "
+          "particle noise).")
+    doc.p(table(["when", "s / dx", "n", "D_z 1/m", "A 1/m", "D / A", "p Pa", "spurious a_z m/s^2", "box [m]", "dx", "date"],
+                [[r["when"], f"{r['s_dx'][0]:g}-{r['s_dx'][1]:g}", r["n"], r["D_z"], r["A"],
+                  "-" if r["D_over_A"] is None else r["D_over_A"], r["p_Pa"], r["spurious_az"],
+                  " x ".join(f"{v:g}" for v in r["box"]), r["dx"], r.get("date")] for r in recs]))
+
+
 def _sourced(doc: Doc, name: str) -> list[dict]:
     """The records of results file ``name`` with its source line, or [] (no note) if it is absent."""
     if not doc.path(name):
@@ -966,7 +985,7 @@ def sec_gpu(doc: Doc):
 
 
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
-            sec_wedge, sec_held_box, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_stress]
+            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_stress]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:
