@@ -26,9 +26,10 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime
-import json
 import os
 import time
+
+from jsonl_out import emit
 
 
 def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: float, depth: float = 0.16,
@@ -101,12 +102,7 @@ def main(argv=None):
     ap.add_argument("--out", default=None, help="also append the JSON lines to this file")
     a = ap.parse_args(argv)
     for c in a.coupling:
-        rec = held_load(c, box=tuple(a.box), tank=tuple(a.tank), dx=a.dx, t_end=a.t_end, h_factor=a.h_factor)
-        line = json.dumps(rec)
-        print(line, flush=True)
-        if a.out:
-            with open(a.out, "a") as f:
-                f.write(line + "\n")
+        emit(held_load(c, box=tuple(a.box), tank=tuple(a.tank), dx=a.dx, t_end=a.t_end, h_factor=a.h_factor), a.out)
 
 
 if __name__ == "__main__":

@@ -19,9 +19,10 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime
-import json
 import os
 import time
+
+from jsonl_out import emit
 
 
 def bands(*, box, tank, dx: float, t_end: float, h_factor: float, depth: float = 0.16, draft: float = 0.04) -> list[dict]:
@@ -57,6 +58,9 @@ def bands(*, box, tank, dx: float, t_end: float, h_factor: float, depth: float =
         fluid[:nf] = kind[:nf] == int(rj.Kind.FLUID)
         mid = (np.abs(rel[:, 0]) < 0.5 * box[0] - 2 * h) & (np.abs(rel[:, 1]) < 0.5 * box[1] - 2 * h)
         tgt = np.where(fluid & mid & (s_face > 0) & (s_face < 2 * h))[0]
+        if tgt.size == 0:
+            raise ValueError(f"wall_consistency: no water under the box farther than 2h = {2 * h:g} m from its sides: "
+                             "make --box wider")
         d = x[tgt, None, :] - x[None, live, :]
         F = np.asarray(wendland_c2_f(jnp.asarray(np.sqrt((d * d).sum(-1))), h))
         Sz = np.sum(V[None, live] * F * d[..., 2], 1)
@@ -106,11 +110,7 @@ def main(argv=None):
     stamp = {"box": a.box, "tank": a.tank, "dx": a.dx, "h_factor": a.h_factor, "wall_s": round(time.perf_counter() - t0, 1),
              "date": datetime.date.today().isoformat(), "load": round(os.getloadavg()[0], 2)}
     for r in recs:
-        line = json.dumps({**r, **stamp})
-        print(line, flush=True)
-        if a.out:
-            with open(a.out, "a") as f:
-                f.write(line + "\n")
+        emit({**r, **stamp}, a.out)
 
 
 if __name__ == "__main__":
