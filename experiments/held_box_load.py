@@ -32,6 +32,30 @@ import time
 from jsonl_out import emit
 
 
+def held_box(coupling: str, *, box, tank, dx: float, h_factor: float, depth: float = 0.16, draft: float = 0.04):
+    """``(scene, config, params)``: ``scenes.floating_box`` with the box at ``draft`` and held there
+    (PRESCRIBED motion with a zero stroke). Also used by ``wall_consistency.py``."""
+    import jax.numpy as jnp
+
+    import rockjax as rj
+
+    sc = rj.scenes.floating_box(dx=dx, box_size=box, tank_size=tank, water_depth=depth, coupling=rj.Coupling(coupling),
+                                initial_draft=draft, h_factor=h_factor)
+    held = dataclasses.replace(sc.config.blocks, motion=(rj.blocks.Motion.PRESCRIBED,))
+    params = sc.params.replace(blocks=sc.params.blocks.replace(stroke=jnp.zeros_like(sc.params.blocks.stroke)))
+    return sc, sc.config.replace(blocks=held), params
+
+
+def scene_arguments(ap: argparse.ArgumentParser, *, box, tank) -> None:
+    """The held box's command-line options (``--box --tank --dx --h-factor --t-end --out``)."""
+    ap.add_argument("--box", type=float, nargs=3, default=box)
+    ap.add_argument("--tank", type=float, nargs=2, default=tank)
+    ap.add_argument("--dx", type=float, default=0.02)
+    ap.add_argument("--h-factor", type=float, default=1.3)
+    ap.add_argument("--t-end", type=float, default=1.5)
+    ap.add_argument("--out", default=None, help="also append the JSON lines to this file")
+
+
 def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: float, depth: float = 0.16,
               draft: float = 0.04) -> dict:
     import jax
@@ -41,11 +65,7 @@ def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: fl
     from rockjax.coupling import penalty
     from rockjax.rollout import scheduled_step
 
-    sc = rj.scenes.floating_box(dx=dx, box_size=box, tank_size=tank, water_depth=depth, coupling=rj.Coupling(coupling),
-                                initial_draft=draft, h_factor=h_factor)
-    held = dataclasses.replace(sc.config.blocks, motion=(rj.blocks.Motion.PRESCRIBED,))
-    params = sc.params.replace(blocks=sc.params.blocks.replace(stroke=jnp.zeros_like(sc.params.blocks.stroke)))
-    config = sc.config.replace(blocks=held)
+    sc, config, params = held_box(coupling, box=box, tank=tank, dx=dx, h_factor=h_factor, depth=depth, draft=draft)
     archimedes = sc.params.fluid.rho0 * 9.81 * box[0] * box[1] * draft
     one = scheduled_step(config, period=32)
     n = int(round(t_end / config.dt))
@@ -94,12 +114,7 @@ def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: fl
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--coupling", nargs="+", default=["penalty", "boundary_particles", "boundary_integral"])
-    ap.add_argument("--box", type=float, nargs=3, default=[0.12, 0.12, 0.08])
-    ap.add_argument("--tank", type=float, nargs=2, default=[0.36, 0.36])
-    ap.add_argument("--dx", type=float, default=0.02)
-    ap.add_argument("--h-factor", type=float, default=1.3)
-    ap.add_argument("--t-end", type=float, default=1.5)
-    ap.add_argument("--out", default=None, help="also append the JSON lines to this file")
+    scene_arguments(ap, box=[0.12, 0.12, 0.08], tank=[0.36, 0.36])
     a = ap.parse_args(argv)
     for c in a.coupling:
         emit(held_load(c, box=tuple(a.box), tank=tuple(a.tank), dx=a.dx, t_end=a.t_end, h_factor=a.h_factor), a.out)

@@ -17,11 +17,11 @@ particles count; targets are fluid particles under the box farther than 2h from 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import datetime
 import os
 import time
 
+from held_box_load import held_box, scene_arguments
 from jsonl_out import emit
 
 
@@ -34,11 +34,8 @@ def bands(*, box, tank, dx: float, t_end: float, h_factor: float, depth: float =
     from rockjax.rollout import scheduled_step
     from rockjax.sph.kernels import KernelKind, plane_integrals, wendland_c2_f
 
-    sc = rj.scenes.floating_box(dx=dx, box_size=box, tank_size=tank, water_depth=depth,
-                                coupling=rj.Coupling.BOUNDARY_INTEGRAL, initial_draft=draft, h_factor=h_factor)
-    held = dataclasses.replace(sc.config.blocks, motion=(rj.blocks.Motion.PRESCRIBED,))
-    params = sc.params.replace(blocks=sc.params.blocks.replace(stroke=jnp.zeros_like(sc.params.blocks.stroke)))
-    config = sc.config.replace(blocks=held)
+    sc, config, params = held_box("boundary_integral", box=box, tank=tank, dx=dx, h_factor=h_factor, depth=depth,
+                                  draft=draft)
     if config.kernel != KernelKind.WENDLAND_C2:
         raise ValueError("wall_consistency: written for the Wendland C2 kernel")
     h, rho0, nf = float(params.fluid.h), float(params.fluid.rho0), config.n_fluid
@@ -95,12 +92,7 @@ def bands(*, box, tank, dx: float, t_end: float, h_factor: float, depth: float =
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--box", type=float, nargs=3, default=[0.24, 0.24, 0.08])
-    ap.add_argument("--tank", type=float, nargs=2, default=[0.6, 0.6])
-    ap.add_argument("--dx", type=float, default=0.02)
-    ap.add_argument("--h-factor", type=float, default=1.3)
-    ap.add_argument("--t-end", type=float, default=1.5)
-    ap.add_argument("--out", default=None, help="also append the JSON lines to this file")
+    scene_arguments(ap, box=[0.24, 0.24, 0.08], tank=[0.6, 0.6])
     a = ap.parse_args(argv)
     import jax
 
