@@ -21,9 +21,11 @@ import rockjax as rj
 from rockjax.validation import dam_break_2d, dam_break_3d, front_error, front_history, martin_moyce_n2_2
 
 
-def run(scheme: str, res: int, a: float = 0.1, *, h_factor: float = 1.3, three_d: bool = False):
+def run(scheme: str, res: int, a: float = 0.1, *, h_factor: float = 1.3, three_d: bool = False,
+        seed_gradient: str = "spiky"):
     build = dam_break_3d if three_d else dam_break_2d
     scene = build(a=a, resolution=res, scheme=rj.Scheme(scheme), h_factor=h_factor)
+    scene = scene.replace(config=scene.config.replace(seed_gradient=rj.SeedGradient(seed_gradient)))
     t_end = 3.05 / math.sqrt(2 * 9.81 / a)
     t0 = time.perf_counter()
     result = rj.simulate(scene, t_end=t_end, frame_dt=t_end / 120, progress=False)

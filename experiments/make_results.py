@@ -767,6 +767,39 @@ def sec_energy_creep(doc: Doc):
                      "kinetic end", "date"], rows))
 
 
+def sec_seed_rest(doc: Doc):
+    doc.h("Seed scheme at rest: pressure-gradient kernel (stress long-run scene)")
+    recs = doc.records("seed_rest.jsonl", "python experiments/seed_rest.py --out experiments/results/seed_rest.jsonl")
+    if recs is None:
+        return
+    doc.p("`experiments/seed_rest.py`: the stress long run's column (a = 0.08 m, a/dx = 4, periodic slab), "
+          "`Scheme.SEED`, float32. Energies in m g 2a: `rebound` = max_t E(t) - min_{s<=t} E(s) (stress bound 3e-3), "
+          "`late` = |E(end) - E(mid)| (bound 1e-3). `gradient`: the kernel of the pressure gradient "
+          "(`Config.seed_gradient`: `spiky`, the paper's; `poly6`, the density sum's); `form`: `paper`, Mueller et "
+          "al.'s (p_i + p_j) / (2 rho_i rho_j) as `sph.seed.forces`, or `variational`, p_i / rho_i^2 + p_j / rho_j^2 "
+          "(swapped in by the script for the A/B).")
+    rows = [[r["gradient"], r["form"], r["steps"], r["t_end"], r["rebound"], r["late"], r["kinetic_2s"],
+             r["kinetic_end"], r["rho_dev_end"], r["wall_s"], r.get("date")] for r in recs if r["bench"] == "seed_rest"]
+    doc.p(table(["gradient", "form", "steps", "t_end s", "rebound", "late", "kinetic at 2 s", "kinetic end",
+                 "mean abs(rho/rho0 - 1) end", "wall s", "date"], rows))
+    hy = [r for r in recs if r["bench"] == "seed_rest_hydrostatic"]
+    if hy:
+        doc.p("A still tank (`--hydrostatic`, `scenes.hydrostatic_tank`, 0.3 m deep): the seed scheme's pressure `p` "
+              "over rho0 g (depth - z), per band of z, averaged over 1-2 s. Mueller's symmetrised pressure force "
+              "(p_i + p_j) / 2 (the paper's Eq 14) is half the SPH pressure gradient, so at rest `p` is about twice the "
+              "hydrostatic pressure; the forces carry p / 2.")
+        doc.p(table(["gradient", "dx", "bands z [m]", "p / hydrostatic", "date"],
+                    [[r["gradient"], r["dx"], ", ".join(f"{lo:g}-{hi:g}" for lo, hi in r["bands_z"]),
+                      ", ".join(f"{v:g}" for v in r["p_over_hydrostatic"]), r.get("date")] for r in hy]))
+    fr = [r for r in recs if r["bench"] == "seed_rest_front"]
+    if fr:
+        doc.p("The 2D Martin & Moyce dam break (`dam_break_2d.py`, n^2 = 2) with each kernel: surge-front RMS "
+              "relative error (unshifted, and at the best time shift).")
+        doc.p(table(["gradient", "a/dx", "n_fluid", "steps", "front error", "best shift", "wall s", "date"],
+                    [[r["gradient"], r["a_over_dx"], r["n_fluid"], r["steps"], r["front_rms_rel_err"],
+                      r["front_rms_rel_err_best_shift"], r["wall_s"], r.get("date")] for r in fr]))
+
+
 def sec_piston_walls(doc: Doc):
     doc.h("Piston flume: beach walls and the start transient")
     recs = doc.records("piston_walls.jsonl", "python experiments/piston_walls.py --out experiments/results/piston_walls.jsonl")
@@ -987,7 +1020,7 @@ def sec_gpu(doc: Doc):
 
 
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
-            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_stress]
+            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_stress]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:

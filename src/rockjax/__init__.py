@@ -20,14 +20,14 @@ from .scenes import Scene
 from .step import make_step, prime
 from .types import (
     Adjoint, Config, Coupling, GatherForm, CouplingParams, CouplingState, DensityDiffusion, FluidParams, GridSpec, KernelKind, Kind,
-    NeighbourList, Params, Particles, Scheme, State, Status, Viscosity, WallModel,
+    NeighbourList, Params, Particles, Scheme, SeedGradient, State, Status, Viscosity, WallModel,
 )
 
 __all__ = [
     "__version__",
     "Config", "Params", "FluidParams", "State", "Particles", "NeighbourList", "GridSpec",
     "CouplingParams", "CouplingState",
-    "Scheme", "KernelKind", "Viscosity", "WallModel", "DensityDiffusion", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
+    "Scheme", "KernelKind", "Viscosity", "WallModel", "DensityDiffusion", "SeedGradient", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
     "make_step", "prime", "make_rollout", "rollout",
     "simulate", "Result", "SimulationError",
     "Scene", "scenes", "observables", "io", "blocks", "coupling", "calibrate", "ensembles",

@@ -26,6 +26,7 @@ __all__ = [
     "Viscosity",
     "WallModel",
     "DensityDiffusion",
+    "SeedGradient",
     "Adjoint",
     "GatherForm",
     "Coupling",
@@ -93,6 +94,19 @@ class DensityDiffusion(enum.Enum):
     #: Antuono et al. (2010) consistent delta-SPH: Molteni minus the linear part of the density
     #: difference, from renormalised density gradients (one extra neighbour pass per step)
     ANTUONO = "antuono"
+
+
+class SeedGradient(enum.Enum):
+    """Kernel whose gradient the seed scheme's pressure force uses (``Scheme.SEED`` only)."""
+
+    #: the spiky kernel (seed Eq 15, after Mueller et al. 2003), as the paper: not the gradient of
+    #: the poly6 summation density, so the force is not that of the scheme's elastic energy and the
+    #: water never comes to rest (``tests/stress/test_long_run.py``: kinetic energy ~2e-2 m g 2a
+    #: after 37 s; ``experiments/seed_rest.py``)
+    SPIKY = "spiky"
+    #: the poly6 kernel's, the same kernel as the density sum (normalised alike): the water comes to
+    #: rest and the energy bounds of the stress suite hold (``experiments/seed_rest.py``)
+    POLY6 = "poly6"
 
 
 class Adjoint(enum.Enum):
@@ -278,6 +292,8 @@ class Config:
             one; at 80k rows the blocked step took 4.35 ms). A speed setting only: the result
             does not depend on it beyond float rounding (``effective_row_tile``).
         scheme, kernel, viscosity, wall_model, density_diffusion: scheme choices.
+        seed_gradient: the kernel of the seed scheme's pressure gradient (``SeedGradient``; the
+            paper's spiky by default; ignored by WCSPH).
         gather: how the WCSPH pair sums gather the neighbours' values (``GatherForm``): one 1-D
             gather per value (default) or one row gather of them stacked; a speed setting only (the
             same numbers), kept for the GPU, where the reverse mode of 1-D gathers was measured slow
@@ -331,6 +347,7 @@ class Config:
     viscosity: Viscosity = Viscosity.ARTIFICIAL
     wall_model: WallModel = WallModel.ADAMI
     density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS
+    seed_gradient: SeedGradient = SeedGradient.SPIKY
     adjoint: Optional[Adjoint] = None
     gather: GatherForm = GatherForm.COMPONENTS
     gamma: float = 7.0

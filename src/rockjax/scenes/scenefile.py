@@ -81,7 +81,8 @@ Form (b): a general scene
     # speed), h_factor, alpha, nu [m^2/s], delta, wall_viscosity (0 = free-slip walls and
     # blocks), skin_factor (Verlet skin / dx; default 0.3, 0.6 with moving blocks),
     # rebuild_every, cfl; kernel,
-    # viscosity, wall_model, density_diffusion (water-only scenes; with blocks the defaults hold)
+    # viscosity, wall_model, density_diffusion (water-only scenes; with blocks the defaults hold);
+    # seed_gradient ("spiky", the paper's, or "poly6": the seed scheme's pressure-gradient kernel)
 
     [coupling]                         # water <-> moving blocks
     method = "penalty"                 # or "boundary_particles", "boundary_integral"; stiffness [1/s^2],
@@ -125,7 +126,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from ..sph.kernels import SUPPORT_FACTOR
-from ..types import Coupling, DensityDiffusion, KernelKind, Scheme, Viscosity, WallModel
+from ..types import Coupling, DensityDiffusion, KernelKind, Scheme, SeedGradient, Viscosity, WallModel
 from .base import GRAVITY, Scene, fluid_scene, lattice
 
 try:  # Python >= 3.11
@@ -330,7 +331,8 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
             "kernel": _choice(_enum_values(KernelKind), "wendland_c2"),
             "viscosity": _choice(_enum_values(Viscosity), "artificial"),
             "wall_model": _choice(_enum_values(WallModel), "adami"),
-            "density_diffusion": _choice(_enum_values(DensityDiffusion), "fourtakas")},
+            "density_diffusion": _choice(_enum_values(DensityDiffusion), "fourtakas"),
+            "seed_gradient": _choice(_enum_values(SeedGradient), "spiky")},
     "coupling": {"method": _choice(("penalty", "boundary_particles", "boundary_integral"), "penalty"),
                  "stiffness": _num(unit="1/s^2", **_POS), "damping": _num(unit="1/s", **_NONNEG),
                  "interaction_distance": _num(unit="m", **_POS), "guard": _Key("bool", True),
@@ -936,11 +938,12 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
                   skin_factor=sph["skin_factor"] if sph["skin_factor"] is not None else (0.6 if moving else 0.3),
                   rebuild_every=sph["rebuild_every"], cfl=sph["cfl"])
     if not moving:
-        return fluid_scene(name=name, dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,
-                           periodic=tuple(periodic), surface_z=still, c0=c0, scheme=scheme,
-                           kernel=KernelKind(sph["kernel"]), viscosity=Viscosity(sph["viscosity"]),
-                           wall_model=WallModel(sph["wall_model"]),
-                           density_diffusion=DensityDiffusion(sph["density_diffusion"]), meta=meta, **common)
+        scene = fluid_scene(name=name, dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,
+                            periodic=tuple(periodic), surface_z=still, c0=c0, scheme=scheme,
+                            kernel=KernelKind(sph["kernel"]), viscosity=Viscosity(sph["viscosity"]),
+                            wall_model=WallModel(sph["wall_model"]),
+                            density_diffusion=DensityDiffusion(sph["density_diffusion"]), meta=meta, **common)
+        return scene.replace(config=scene.config.replace(seed_gradient=SeedGradient(sph["seed_gradient"])))
     for key in ("kernel", "viscosity", "wall_model", "density_diffusion"):
         if sph[key] != _SCHEMA["sph"][key].default:
             ctx.fail(("sph", key), f"scenes with moving blocks use {key} = {_SCHEMA['sph'][key].default!r} "
@@ -979,4 +982,4 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
         scene = scene.replace(params=scene.params.replace(coupling=coupling_params(
             dx=dx, c0=c0, stiffness=cpl["stiffness"], damping=cpl["damping"],
             interaction_distance=cpl["interaction_distance"], coupling=Coupling(cpl["method"]))))
-    return scene
+    return scene.replace(config=scene.config.replace(seed_gradient=SeedGradient(sph["seed_gradient"])))

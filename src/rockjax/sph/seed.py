@@ -44,6 +44,24 @@ front RMS error, unshifted; as printed the scheme gives 0.40):
    the largest speed the scheme is built for (c0 / 10) is stopped within ~0.1 h. Gradients reach
    them through ``c0`` and ``h``.
 
+An option, not the paper's (``Config.seed_gradient``, ``SeedGradient.POLY6``): the pressure force with
+the gradient of the poly6 kernel that sums the density (normalised alike) instead of the spiky one.
+With the spiky gradient the force is not the gradient of the scheme's elastic energy (``energies``),
+and the water never comes to rest: the stress suite's collapsed column (a/dx = 4, float32, 11 s;
+``experiments/seed_rest.py``, 2026-11-28) keeps a kinetic energy of 2-4e-2 m g 2a and its total
+energy rebounds by 2.3e-2 (m g 2a); with the poly6 gradient the kinetic energy is 3.5e-4 at 2 s and
+3.5e-5 at 11 s, the rebound 2.6e-4, and its 2D dam-break front is as good (front error 0.056 / 0.046
+at a/dx = 10 / 20 against 0.063 / 0.051). The kernels are the cause, not the paper's form
+``(p_i + p_j) / (2 rho_j)``: the energy-conserving form ``p_i / rho_i^2 + p_j / rho_j^2`` wanders as
+much with the spiky gradient (rebound 5.9e-2) and settles with the poly6 one (4.2e-4).
+
+Pressure scale: Mueller's symmetrised force ``(p_i + p_j) / 2`` (Eq 14) is half the SPH estimate of
+the pressure gradient, so the scheme's ``p`` at rest is about twice the hydrostatic pressure (a still
+tank, 2026-11-28: 1.99-2.10 with the spiky gradient, 1.5-1.9 with poly6; ``experiments/seed_rest.py
+--hydrostatic``) and its sound speed c0 / sqrt(2): the forces (and a block's loads, taken from them)
+carry p / 2. ``energies`` keeps the elastic energy of ``p`` itself (noticed, not changed: the
+energy the scheme approximately conserves has half that elastic term).
+
 The paper's viscosity (Eq 18) is the only dissipation; the scene builders default the seed
 scheme to ``nu = 1e-3 m^2/s`` (its Reynolds number in the test dam break is ~100, which the front
 speed tolerates: 0.07 front error vs 0.05 at nu = 1e-4, where the run is noisier).
@@ -54,9 +72,9 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from ..types import Config, Kind, NeighbourList, Params, Particles, WallModel
+from ..types import Config, Kind, NeighbourList, Params, Particles, SeedGradient, WallModel
 from .eos import linear_density, linear_pressure
-from .kernels import SUPPORT_FACTOR, poly6, spiky_f, viscosity_laplacian
+from .kernels import SUPPORT_FACTOR, poly6, poly6_f, spiky_f, viscosity_laplacian
 from .neighbours import Pairs, pairs, transpose_sum, wrap_positions
 from .walls import adami_pressure
 
@@ -147,7 +165,8 @@ def energies(P: Particles, nbrs: NeighbourList, params: Params, config: Config) 
     ``e = int_rho0^rho p / rho^2 = c0^2 (ln(rho/rho0) + rho0/rho - 1)`` for ``rho > rho0`` and 0
     below (the clamped law), ``wall`` = the potential of the Eq 22 springs ``sum m K_S (dx - r)^2 / 2``,
     and ``total``. The inviscid scheme conserves it only approximately: Mueller's symmetrised
-    pressure force is not the gradient of this energy; viscosity and the wall damping dissipate.
+    pressure force is not the gradient of this energy (far from it with the spiky gradient, the
+    paper's; close with ``SeedGradient.POLY6``); viscosity and the wall damping dissipate.
     """
     f = params.fluid
     nf = config.n_fluid
@@ -175,7 +194,11 @@ def forces(pr: Pairs, v, rho, p, vol, kind, params: Params, config: Config):
     nf = config.n_fluid
     idx, d = pr.idx, pr.d
     pair = pr.mask & (pr.r > 0)
-    F = jnp.where(pair, spiky_f(jnp.where(pair, pr.r, SUPPORT_FACTOR * f.h), f.h), 0.0)
+    r = jnp.where(pair, pr.r, SUPPORT_FACTOR * f.h)
+    if config.seed_gradient == SeedGradient.POLY6:  # the density's kernel, normalised as the density
+        F = jnp.where(pair, poly6_f(r, f.h), 0.0) / lattice_sum(f.h, _spacing(vol))
+    else:
+        F = jnp.where(pair, spiky_f(r, f.h), 0.0)
     m_j = f.rho0 * vol[idx]
     rho_j = rho[idx]
     cp = -m_j * (p[:nf, None] + p[idx]) / (2.0 * rho_j) * F
