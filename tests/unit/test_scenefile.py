@@ -442,10 +442,13 @@ def test_non_convex_fixed_mesh_is_walls_only(tmp_path):
 
 def test_seed_gradient_key():
     """``[sph] seed_gradient`` sets ``Config.seed_gradient`` (the paper's spiky kernel by default);
-    a value not in ``SeedGradient`` is refused naming the key and the choices."""
+    a value not in ``SeedGradient``, or the key with the WCSPH scheme (where it would do nothing), is
+    refused naming the key."""
     base = _water_tank("").replace("dx = 0.05\n", 'dx = 0.05\nscheme = "seed"\n')
     assert load(base).scene.config.seed_gradient == rj.SeedGradient.SPIKY
     poly6 = load(base.replace('scheme = "seed"\n', 'scheme = "seed"\nseed_gradient = "poly6"\n')).scene
     assert poly6.config.seed_gradient == rj.SeedGradient.POLY6
     with pytest.raises(ValueError, match=r"key `sph.seed_gradient`.*poly6"):
         load(base.replace('scheme = "seed"\n', 'scheme = "seed"\nseed_gradient = "cubic"\n'))
+    with pytest.raises(ValueError, match=r"key `sph.seed_gradient`.*applies to scheme = \"seed\" only"):
+        load(base.replace('scheme = "seed"\n', 'seed_gradient = "poly6"\n'))

@@ -937,6 +937,8 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
                   # the builders' defaults: 0.3 dx for water only, 0.6 dx with moving blocks
                   skin_factor=sph["skin_factor"] if sph["skin_factor"] is not None else (0.6 if moving else 0.3),
                   rebuild_every=sph["rebuild_every"], cfl=sph["cfl"])
+    if scheme != Scheme.SEED and sph["seed_gradient"] != _SCHEMA["sph"]["seed_gradient"].default:
+        ctx.fail(("sph", "seed_gradient"), 'applies to scheme = "seed" only; remove the key or set that scheme')
     if not moving:
         scene = fluid_scene(name=name, dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,
                             periodic=tuple(periodic), surface_z=still, c0=c0, scheme=scheme,

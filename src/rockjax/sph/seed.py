@@ -165,8 +165,9 @@ def energies(P: Particles, nbrs: NeighbourList, params: Params, config: Config) 
     ``e = int_rho0^rho p / rho^2 = c0^2 (ln(rho/rho0) + rho0/rho - 1)`` for ``rho > rho0`` and 0
     below (the clamped law), ``wall`` = the potential of the Eq 22 springs ``sum m K_S (dx - r)^2 / 2``,
     and ``total``. The inviscid scheme conserves it only approximately: Mueller's symmetrised
-    pressure force is not the gradient of this energy (far from it with the spiky gradient, the
-    paper's; close with ``SeedGradient.POLY6``); viscosity and the wall damping dissipate.
+    pressure force is not the gradient of this energy (with ``SeedGradient.POLY6`` it is close to
+    half the elastic part's, see "Pressure scale" above; with the paper's spiky gradient it is not
+    proportional to it); viscosity and the wall damping dissipate.
     """
     f = params.fluid
     nf = config.n_fluid
