@@ -11,7 +11,8 @@ Variants: ``--gradients`` the kernel whose gradient the pressure force uses (``s
 seed Eq 15; ``poly6``: the density sum's); ``--forms`` the pressure force's form (``paper``:
 Mueller et al.'s ``(p_i + p_j) / (2 rho_i rho_j)``, what ``sph.seed.forces`` computes;
 ``variational``: ``p_i / rho_i^2 + p_j / rho_j^2``, the gradient of the elastic energy when the
-kernel is the density's; swapped in here for the A/B only, not an option of the package).
+kernel is the density's; swapped in here for the A/B only through ``sph.seed.pressure_coefficient``,
+not an option of the package).
 ``--dam-break RES ...`` also runs ``dam_break_2d.py``'s Martin & Moyce front per gradient kernel.
 
     python experiments/seed_rest.py --out experiments/results/seed_rest.jsonl
@@ -38,33 +39,10 @@ A = 0.08
 DX = A / 4
 
 
-def _variational_forces(pr, v, rho, p, vol, kind, params, config):
-    """``sph.seed.forces`` with the pressure term ``-m_j (p_i / rho_i^2 + p_j / rho_j^2) grad W``."""
-    import jax.numpy as jnp
-
-    from rockjax.sph import seed
-    from rockjax.sph.kernels import SUPPORT_FACTOR, poly6_f, spiky_f, viscosity_laplacian
-    from rockjax.types import Kind, SeedGradient
-
-    f = params.fluid
-    nf = config.n_fluid
-    idx, d = pr.idx, pr.d
-    pair = pr.mask & (pr.r > 0)
-    r = jnp.where(pair, pr.r, SUPPORT_FACTOR * f.h)
-    if config.seed_gradient == SeedGradient.POLY6:
-        F = jnp.where(pair, poly6_f(r, f.h), 0.0) / seed.lattice_sum(f.h, seed._spacing(vol))
-    else:
-        F = jnp.where(pair, spiky_f(r, f.h), 0.0)
-    m_j = f.rho0 * vol[idx]
-    rho_j = rho[idx]
-    cp = -m_j * (p[:nf, None] / rho[:nf, None] ** 2 + p[idx] / rho_j**2) * F
-    cv = f.rho0 * f.nu * m_j / rho_j * jnp.where(pair, viscosity_laplacian(pr.r, f.h), 0.0) / rho[:nf, None]
-    acc = jnp.stack([jnp.sum(cp * d[a] + cv * (v[:, a][idx] - v[:nf, a, None]), axis=1) for a in range(3)], 1)
-    acc = acc + params.gravity
-    if config.n_wall:
-        acc = acc + seed.wall_repulsion(pr, v, vol, kind, params, config)
-    acc = jnp.where((kind[:nf] == Kind.FLUID)[:, None], acc, 0.0)
-    return jnp.concatenate([acc, jnp.zeros((config.n_wall, 3), acc.dtype)])
+def _variational_coefficient(m_j, p_i, p_j, rho_i, rho_j):
+    """``sph.seed.pressure_coefficient`` of the energy-conserving form: ``-m_j rho_i (p_i / rho_i^2 + p_j / rho_j^2)``
+    (``forces`` divides by ``rho_i``)."""
+    return -m_j * rho_i * (p_i / rho_i**2 + p_j / rho_j**2)
 
 
 def _forget_compiled():
@@ -98,8 +76,8 @@ def rest(gradient: str, form: str, steps: int) -> dict:
     per_frame = max(k, (steps // 50) // k * k)
     n_frames = max(1, round(steps / per_frame))
     t_end = n_frames * per_frame * scene.config.dt
-    paper = seed.forces
-    seed.forces = _variational_forces if form == "variational" else paper
+    paper = seed.pressure_coefficient
+    seed.pressure_coefficient = _variational_coefficient if form == "variational" else paper
     _forget_compiled()  # the compiled steps are cached per Config, which the form is not part of
     try:
         t0 = time.perf_counter()
@@ -107,7 +85,7 @@ def rest(gradient: str, form: str, steps: int) -> dict:
         wall = time.perf_counter() - t0
         e = energy_history(res)
     finally:
-        seed.forces = paper
+        seed.pressure_coefficient = paper
         _forget_compiled()
     scale = float(fluid_mass(scene.state, scene.params)) * 9.81 * 2 * A
     tot, ke = e["total"] / scale, e["kinetic"] / scale

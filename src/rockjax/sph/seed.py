@@ -78,7 +78,7 @@ from .kernels import SUPPORT_FACTOR, poly6, poly6_f, spiky_f, viscosity_laplacia
 from .neighbours import Pairs, pairs, transpose_sum, wrap_positions
 from .walls import adami_pressure
 
-__all__ = ["density", "pressure", "forces", "body_accelerations", "advance", "prime", "lattice_sum", "wall_constants",
+__all__ = ["density", "pressure", "pressure_coefficient", "forces", "body_accelerations", "advance", "prime", "lattice_sum", "wall_constants",
            "wall_repulsion", "energies", "LATTICE_REACH"]
 
 #: ``lattice_sum`` covers lattice offsets up to this many spacings per axis: valid for 2h <= 8 dx.
@@ -189,6 +189,15 @@ def energies(P: Particles, nbrs: NeighbourList, params: Params, config: Config) 
             "total": kinetic + potential + elastic + wall}
 
 
+def pressure_coefficient(m_j, p_i, p_j, rho_i, rho_j):
+    """Seed Eq 14's pair coefficient [R, K]: the pressure force density on i is ``coefficient x
+    (dW/dr / r) x (x_i - x_j)``, Mueller's symmetrised ``-m_j (p_i + p_j) / (2 rho_j)`` (``forces``
+    divides by ``rho_i``). A module-level function so that an experiment can swap the form
+    (``experiments/seed_rest.py``)."""
+    del rho_i
+    return -m_j * (p_i + p_j) / (2.0 * rho_j)
+
+
 def forces(pr: Pairs, v, rho, p, vol, kind, params: Params, config: Config):
     """Acceleration [N, 3] m/s^2: (pressure + viscosity force) / rho + g + wall repulsion (Eq 14, 18, 20, 22)."""
     f = params.fluid
@@ -202,7 +211,7 @@ def forces(pr: Pairs, v, rho, p, vol, kind, params: Params, config: Config):
         F = jnp.where(pair, spiky_f(r, f.h), 0.0)
     m_j = f.rho0 * vol[idx]
     rho_j = rho[idx]
-    cp = -m_j * (p[:nf, None] + p[idx]) / (2.0 * rho_j) * F
+    cp = pressure_coefficient(m_j, p[:nf, None], p[idx], rho[:nf, None], rho_j) * F
     cv = f.rho0 * f.nu * m_j / rho_j * jnp.where(pair, viscosity_laplacian(pr.r, f.h), 0.0)
     acc = jnp.stack([jnp.sum(cp * d[a] + cv * (v[:, a][idx] - v[:nf, a, None]), axis=1) for a in range(3)], 1)
     acc = acc / rho[:nf, None] + params.gravity
