@@ -287,7 +287,8 @@ def main(argv=None):
     obj = objective(scene)
     base = dict(scene=args.scene, n_fluid=config.n_fluid, n_wall=config.n_wall,
                 n_blocks=(config.blocks.n_blocks if config.blocks else 0), dtype="f64" if args.f64 else "f32",
-                adjoint=config.effective_adjoint.value, gather=config.gather.value, jax_pullbacks=args.jax_pullbacks,
+                adjoint=config.effective_adjoint.value, gather=config.effective_gather.value, row_tile=config.effective_row_tile,
+                jax_pullbacks=args.jax_pullbacks,
                 dt=config.dt, rebuild_every=k, device=str(jax.devices()[0].platform))
     state0 = jax.jit(prime, static_argnums=2)(scene.state, scene.params, config)
     if args.step_vjp:

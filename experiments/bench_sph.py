@@ -143,7 +143,7 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
     nf, nw = counts["fluid"], counts["wall"]
     return {
         "bench": "sph_dam_break_3d", "tag": tag, "size": size, "scheme": scheme, "diffusion": config.density_diffusion.value,
-        "gather": config.gather.value, "row_tile": config.effective_row_tile, "n_fluid": nf, "n_wall": nw,
+        "gather": config.effective_gather.value, "row_tile": config.effective_row_tile, "n_fluid": nf, "n_wall": nw,
         "dx": 0.5 / nx, "dtype": str(np.asarray(state.particles.x).dtype),
         "K": config.neighbour_capacity, "cell_capacity": config.cell_capacity,
         "skin_dx": round(config.skin / (0.5 / nx), 3), "rebuild_every": config.rebuild_every, "regrows": regrows,

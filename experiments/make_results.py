@@ -982,36 +982,44 @@ def sec_gpu(doc: Doc):
             doc.p(table(["scheme", "size", "n_fluid", "n_wall", "dtype", "steps", "ms/step", "fluid p-steps/s",
                          "peak device MiB", "compile s", "vs CPU"], rows))
         recs = _sourced(doc, f"{stem}_sph.jsonl")
+        one_block = any(r.get("row_tile") == 0 for r in recs or [] if r["scheme"] == "wcsph")
         if recs:
             doc.p("Where a step's time goes (`bench_sph.py --sizes 80k`): one list build, one step with a given "
-                  "list, and a whole chunk per step. The WCSPH step ran its pair sums in blocks of 512 rows (the "
-                  "CPU default then; a sequential scan on the GPU), the seed step in one block.")
-            rows = [[r["scheme"], r.get("diffusion", "-") if r["scheme"] == "wcsph" else "-", r["n_fluid"], r.get("row_tile", "512" if r["scheme"] == "wcsph" else "-"),
+                  "list, and a whole chunk per step. `row tile`: the WCSPH pair sums in blocks of that many rows (a "
+                  "sequential scan on the GPU; the CPU's default for large lists, and this run's where the column "
+                  "says 512 without a `gather`), 0 = one block (the accelerator default since 2026-11-27); "
+                  "`gather`: `Config.gather` (`GatherForm`; 1-D gathers where not given).")
+            rows = [[r["scheme"], r.get("diffusion", "-") if r["scheme"] == "wcsph" else "-", r["n_fluid"],
+                     r.get("row_tile", "512" if r["scheme"] == "wcsph" else "-"),
+                     r.get("gather", "-") if r["scheme"] == "wcsph" else "-",
                      r["ms_build"], r["ms_step"], r["ms_per_step"], r["fluid_particle_steps_per_s"]] for r in recs]
-            doc.p(table(["scheme", "density diffusion", "n_fluid", "row tile", "build ms", "step ms", "chunk ms/step",
-                         "fluid p-steps/s"], rows))
+            doc.p(table(["scheme", "density diffusion", "n_fluid", "row tile", "gather", "build ms", "step ms",
+                         "chunk ms/step", "fluid p-steps/s"], rows))
         for kind in ("grad", "adjoint"):
             recs = _sourced(doc, f"{stem}_{kind}.jsonl")
             if not recs:
                 continue
             g = [r for r in recs if r.get("bench") in ("grad", "adjoint_ab")]
-            rows = [[r["n_fluid"], r["dtype"], r["steps"], r.get("row_tile", "512 (default)"), r["adjoint"],
-                     r.get("pullbacks") or "-", r["forward_s"], r["grad_s"], r["grad_over_forward"],
+            rows = [[r["n_fluid"], r["dtype"], r["steps"], r.get("row_tile", "512 (default)" if r["adjoint"] == "pair_sums" else "0 (default)"), r.get("gather", "components"),
+                     r["adjoint"], r.get("pullbacks") or "-", r["forward_s"], r["grad_s"], r["grad_over_forward"],
                      r.get("grad_checkpointed_temp_bytes", 0) / 2**20 or "-"] for r in g]
             doc.p("Checkpointed gradient of the dam scene (`bench_grad.py --dx 0.0125 "
-                  f"{'--multiples 1 4 --batches 1 8 64' if kind == 'grad' else '--adjoint-ab --ab-tiles 0'}`).")
-            doc.p(table(["n_fluid", "dtype", "steps", "row tile", "adjoint", "pullbacks", "forward s", "grad s",
+                  f"{'--multiples 1 4 --batches 1 8 64' if kind == 'grad' else '--adjoint-ab --ab-tiles 0'}`, "
+                  "with `--gather rows` for the rows so marked).")
+            doc.p(table(["n_fluid", "dtype", "steps", "row tile", "gather", "adjoint", "pullbacks", "forward s", "grad s",
                          "grad / forward", "grad MiB"], rows))
             e = [r for r in recs if r.get("bench") == "ensemble"]
             if e:
-                doc.p(table(["ensemble mode", "batch", "steps", "scenario-steps/s", "vs one by one"],
-                            [[r.get("mode"), r.get("batch", 1), r.get("steps"), r.get("scenario_steps_per_s"),
+                doc.p(table(["ensemble mode", "gather", "batch", "steps", "scenario-steps/s", "vs one by one"],
+                            [[r.get("mode"), r.get("gather", "components"), r.get("batch", 1), r.get("steps"),
+                              r.get("scenario_steps_per_s"),
                               r.get("speedup_vs_one_by_one")] for r in e]))
         recs = _sourced(doc, f"{stem}_coupled.jsonl")
         if recs:
             doc.p("Coupled step split, sliding wedge (`bench_coupled.py`); issue 7's <= 15 % target is stated for the "
                   "2-core CPU (table above): on the GPU the water is cheap and the block stages, many small "
-                  "kernels, weigh more (and this run's water step still used the CPU's 512-row blocks: 35k rows).")
+                  "kernels, weigh more" + ("." if one_block else
+                                           " (and this run's water step still used the CPU's 512-row blocks: 35k rows)."))
             doc.p(table(["coupling", "dx [m]", "n_fluid", "full ms/step", "fluid ms", "blocks ms", "coupling ms",
                          "blocks+coupling %"],
                         [[r["coupling"], r["dx"], r["n_fluid"], r["ms_per_step_full"], r["ms_per_step_fluid"],

@@ -154,3 +154,14 @@ def test_default_row_tile_is_one_block_on_accelerators(monkeypatch):
     monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
     assert big.effective_row_tile == 0 and big.effective_adjoint == rj.Adjoint.AUTODIFF
     assert big.replace(row_tile=512).effective_row_tile == 512
+
+
+def test_default_gather_is_rows_on_accelerators_only(monkeypatch):
+    """``GatherForm`` resolves by backend: 1-D gathers on the CPU (their forward is faster there),
+    row gathers on a GPU (their reverse mode is faster there); an explicit ``gather`` still wins."""
+    c = rj.scenes.dam_break(dx=0.5 / 5, column_height=0.5, tank_length=1.0, tank_width=0.5, column_width=0.4).config
+    assert c.gather is None and c.effective_gather == rj.GatherForm.COMPONENTS  # here: the CPU
+    assert c.replace(gather=rj.GatherForm.ROWS).effective_gather == rj.GatherForm.ROWS
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    assert c.effective_gather == rj.GatherForm.ROWS
+    assert c.replace(gather=rj.GatherForm.COMPONENTS).effective_gather == rj.GatherForm.COMPONENTS

@@ -85,9 +85,9 @@ SAVED_NAME = "rockjax_pair_sums"
 
 def gathered(pr: Pairs, row_vals: dict, col_vals: dict, config: Config):
     """``(ri, cj)`` of a row block: the rows' ``row_vals`` [R, 1] and their neighbours' ``col_vals``
-    [R, K] (``config.gather``: one gather per value, or one row gather of them stacked)."""
+    [R, K] (``config.effective_gather``: one gather per value, or one row gather of them stacked)."""
     ri = {k: pr.rows.of(a)[:, None] for k, a in row_vals.items()}
-    if config.gather != GatherForm.ROWS:
+    if config.effective_gather != GatherForm.ROWS:
         return ri, {k: take(a, pr.idx) for k, a in col_vals.items()}
     keys = list(col_vals)
     g = take(jnp.stack([col_vals[k] for k in keys], axis=1), pr.idx)  # [R, K, C]
