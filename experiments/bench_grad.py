@@ -255,6 +255,9 @@ def main(argv=None):
     ap.add_argument("--ab-tiles", type=int, nargs="+", default=[0, 512], help="row tiles of --adjoint-ab")
     ap.add_argument("--jax-pullbacks", action="store_true",
                     help="PAIR_SUMS with JAX's VJP of each pair function instead of the hand-derived pullbacks")
+    ap.add_argument("--backward-tile", type=int, default=None,
+                    help="rows per block of PAIR_SUMS's backward where the forward is one block "
+                         "(sph.pair_sum.BACKWARD_TILE, 512; 0 = one block, for accelerators)")
     ap.add_argument("--adjoint-ab", action="store_true",
                     help="only the interleaved A/B of Config.adjoint x row_tile (0, 512) at --base-steps steps")
     ap.add_argument("--time-plain", action="store_true",
@@ -276,6 +279,10 @@ def main(argv=None):
 
         hand_off = hand_pullbacks(False)  # for the whole run (kept referenced)
         hand_off.__enter__()
+    if args.backward_tile is not None:
+        from rockjax.sph import pair_sum
+
+        pair_sum.BACKWARD_TILE = args.backward_tile  # read at trace time
     scene = build(args.scene, args.dx)
     if args.adjoint:
         scene = scene.replace(config=scene.config.replace(adjoint=Adjoint(args.adjoint)))
@@ -288,7 +295,7 @@ def main(argv=None):
     base = dict(scene=args.scene, n_fluid=config.n_fluid, n_wall=config.n_wall,
                 n_blocks=(config.blocks.n_blocks if config.blocks else 0), dtype="f64" if args.f64 else "f32",
                 adjoint=config.effective_adjoint.value, gather=config.effective_gather.value, row_tile=config.effective_row_tile,
-                jax_pullbacks=args.jax_pullbacks,
+                jax_pullbacks=args.jax_pullbacks, backward_tile=args.backward_tile,
                 dt=config.dt, rebuild_every=k, device=str(jax.devices()[0].platform))
     state0 = jax.jit(prime, static_argnums=2)(scene.state, scene.params, config)
     if args.step_vjp:
