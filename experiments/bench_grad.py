@@ -8,8 +8,11 @@ number of steps, and ensemble throughput. JSON lines on stdout.
    excluded). Memory: XLA's compiled ``memory_analysis()`` -- temporary buffers of the compiled
    program (``temp_bytes``), which is the peak working set beyond inputs and outputs; it is
    deterministic, unlike process RSS on a shared machine.
-2. Ensemble throughput (forward, ``rockjax.ensembles.run_ensemble``) at batch 1, 8, 64, against
-   running the same members one by one with a jitted single-member rollout: scenario-steps/s.
+2. Ensemble throughput (forward, ``rockjax.ensembles.ensemble`` of a rollout on the fixed rebuild
+   schedule) at batch 1, 8, 64, against running the same members one by one with a jitted
+   single-member rollout: scenario-steps/s; mode ``vmap`` (all members in one ``jax.vmap``,
+   ``batch_size=None``) and ``map`` (one member at a time in a ``lax.map``, ``batch_size=1``, the
+   CPU default).
 
 3. ``--adjoint-ab``: the checkpointed gradient of ``--base-steps`` steps under each
    ``Config.adjoint`` (``AUTODIFF``: JAX transposes the neighbour gathers; ``PAIR_SUMS``: the
@@ -236,6 +239,8 @@ def main(argv=None):
     ap.add_argument("--multiples", type=int, nargs="+", default=[1, 4, 16])
     ap.add_argument("--batches", type=int, nargs="+", default=[1, 8, 64])
     ap.add_argument("--ensemble-steps", type=int, default=None, help="steps per member (default T)")
+    ap.add_argument("--ensemble-modes", nargs="+", default=["vmap", "map"], choices=["vmap", "map"],
+                    help="ensembles.ensemble's batch_size None (vmap: all members at once) and 1 (map)")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--f64", action="store_true")
     ap.add_argument("--adjoint", default=None, choices=[a.value for a in Adjoint],
@@ -315,7 +320,8 @@ def main(argv=None):
             n = mult * T
 
             def fwd(p, n=n):
-                s, _ = observed(config, p, n, None, state=state0, checkpoint=False, prime=False)
+                s, _ = observed(config, p, n, None, state=state0, checkpoint=False, prime=False,
+                            rebuild_on_displacement=False)  # a cond under vmap runs both branches
                 return obj(s, p)
 
             def loss(p, n=n, ck=True):
@@ -358,26 +364,36 @@ def main(argv=None):
             return ensembles.batch(scene.params, b, {f: v * jnp.linspace(0.9, 1.1, b) for f, v in fields.items()})
 
         def one(p):
-            s, _ = observed(config, p, n, None, state=state0, checkpoint=False, prime=False)
+            s, _ = observed(config, p, n, None, state=state0, checkpoint=False, prime=False,
+                            rebuild_on_displacement=False)  # a cond under vmap runs both branches
             return obj(s, p)
 
+        # per batch: one by one (a jitted single member, called per member), vmap (all members at
+        # once, batch_size None) and map (one at a time in a lax.map, batch_size 1), timed in
+        # alternation (this machine's load moves single timings by tens of per cent): medians
         single = jax.jit(one)
-        p8 = sample(8)
-        members = ensembles.unstack(p8)
-        jax.block_until_ready(single(members[0]))
-        t = time.perf_counter()
-        for m in members:
-            jax.block_until_ready(single(m))
-        t_one = (time.perf_counter() - t) / len(members)
-        print(json.dumps(dict(base, bench="ensemble", mode="one_by_one", steps=n, seconds_per_member=t_one,
-                              scenario_steps_per_s=n / t_one)), flush=True)
+        ens = dict(rebuild_on_displacement=False, repeats=args.repeats, date=time.strftime("%Y-%m-%d"))
         for b in args.batches:
-            fn = ensembles.ensemble(one)
             pb = sample(b)
-            tb = timed(fn, pb, repeats=max(1, args.repeats - 1))
-            print(json.dumps(dict(base, bench="ensemble", mode="vmap", batch=b, steps=n, seconds=tb,
-                                  scenario_steps_per_s=b * n / tb, speedup_vs_one_by_one=(b * n / tb) / (n / t_one))),
-                  flush=True)
+            members = ensembles.unstack(pb)
+            fns = {"one_by_one": lambda _: [single(m) for m in members]}
+            for mode, size in (("vmap", None), ("map", 1)):
+                if mode in args.ensemble_modes and not (mode == "map" and b == 1):
+                    fns[mode] = ensembles.ensemble(one, batch_size=size)
+            times = {k: [] for k in fns}
+            for f in fns.values():
+                jax.block_until_ready(f(pb))  # compile
+            for _ in range(max(1, args.repeats)):
+                for k, f in fns.items():
+                    t = time.perf_counter()
+                    jax.block_until_ready(f(pb))
+                    times[k].append(time.perf_counter() - t)
+            t_one = statistics.median(times["one_by_one"])
+            for k, ts in times.items():
+                tb = statistics.median(ts)
+                print(json.dumps(dict(base, bench="ensemble", mode=k, batch=b, steps=n, seconds=tb,
+                                      scenario_steps_per_s=b * n / tb, speedup_vs_one_by_one=t_one / tb, **ens)),
+                      flush=True)
 
 
 if __name__ == "__main__":

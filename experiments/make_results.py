@@ -602,7 +602,17 @@ def sec_grad(doc: Doc):
                      r.get("grad_plain_temp_bytes", 0) / 2**20, r.get("grad_plain_over_forward")] for r in g]
             doc.p(table(["checkpoint levels", "steps T", "forward s", "grad s", "grad / forward", "forward MiB",
                          "grad (checkpointed) MiB", "grad (plain scan) MiB", "plain grad / forward"], rows))
-        if e:
+        if e and not g:
+            doc.p(f"`{name}` (`bench_grad.py --skip-grad --dx ... --batches 1 8 64 --repeats 5`): ensembles of the "
+                  "dam scene (members differ in `fluid.c0`, a rollout of 2 list rebuilds on the fixed schedule), "
+                  "`rockjax.ensembles.ensemble` with all members in one `jax.vmap` (`vmap`, `batch_size=None`) or "
+                  "one at a time in a `lax.map` (`map`, `batch_size=1`, the CPU default since 2026-11-28) against "
+                  "a jitted single member called per member (`one_by_one`), timed in alternation (medians).")
+            rows = [[r.get("n_fluid"), r.get("device"), r.get("mode"), r.get("batch", 1), r.get("steps"),
+                     r.get("scenario_steps_per_s"), r.get("speedup_vs_one_by_one"), r.get("date")] for r in e]
+            doc.p(table(["n_fluid", "device", "ensemble mode", "batch", "steps", "scenario-steps/s", "vs one by one",
+                         "date"], rows))
+        elif e:
             rows = [[r.get("mode"), r.get("batch", 1), r.get("steps"), r.get("scenario_steps_per_s"),
                      r.get("speedup_vs_one_by_one")] for r in e]
             doc.p(table(["ensemble mode", "batch", "steps", "scenario-steps/s", "vs one by one"], rows))

@@ -338,8 +338,9 @@ print("batched density leaf:", params.blocks.density.shape, "(members, blocks)")
     md("""
 One member: run `n_steps` (`rockjax.calibrate.observed`, the differentiable rollout; no
 checkpointing is needed without a gradient) recording the run-up after every block of 8 steps,
-and return its maximum over time and the final status bits. `ensembles.ensemble` is
-`jax.jit(jax.vmap(...))` of it.
+and return its maximum over time and the final status bits. `ensembles.ensemble` maps it over the
+members, jitted: on the CPU one member at a time (a `lax.map`: vmapped batches ran slower there),
+on a GPU all at once under `jax.vmap` (its `batch_size` chooses).
 """),
     code("""
 sl = scene.meta["runup_slope"]

@@ -7,7 +7,8 @@ differing in density, friction angle (Params) and initial down-slope velocity (S
 the final centroid of the box as output. Compared, in float64:
 
 * ``run_ensemble(..., shard=True)`` over 4 devices (shard_map, 2 members each) vs the unsharded
-  ``vmap``: identical (``array_equal``);
+  run: identical (``array_equal``; on the CPU both map the members one at a time, ``ensemble``'s
+  default there; ``tests/gradients/test_fluid_grad.py`` runs the vmapped batches);
 * 6 members sharded (padded to 8, trimmed) vs the first 6 of the unsharded run: identical;
 * two members run alone in this process (no vmap: ``gradcases.incline_functional``, the function
   the block gradient tests compile) vs their rows of the ensemble: equal to 1e-12 m (a vmapped
@@ -141,3 +142,22 @@ def test_leaf_paths_reject_bad_input(x64):
         set_leaf(scene.params, "blocks.density", jnp.ones(3))
     with pytest.raises(ValueError, match="rebuild_every"):
         n_blocks_for(scene.config.replace(rebuild_every=8), 12)
+
+
+def test_batch_size_of_the_mapped_ensemble(x64):
+    """``ensemble``'s ``batch_size``: every choice gives each member's own result (a cheap function,
+    6 members: one scan, vmapped pairs, vmapped fours with a remainder of two, one vmap), with the
+    shared argument held fixed; bad values are refused by name; the default is one member at a
+    time on the CPU."""
+    x = jnp.arange(6.0)
+    f = lambda a, c: jnp.sin(a) * c + a**2
+    want = np.asarray(f(x, 3.0))
+    for b in (1, 2, 4, None, 10):
+        np.testing.assert_allclose(np.asarray(ensembles.ensemble(f, in_axes=(0, None), batch_size=b)(x, 3.0)), want,
+                                   rtol=1e-15, err_msg=str(b))
+    assert ensembles.default_batch_size() == 1  # the tests run on the CPU
+    for bad in (0, -1, 1.5, "all"):
+        with pytest.raises(ValueError, match="batch_size"):
+            ensembles.ensemble(f, batch_size=bad)
+    with pytest.raises(ValueError, match="disagree"):
+        ensembles.ensemble(f, batch_size=2)(x, jnp.ones(5))

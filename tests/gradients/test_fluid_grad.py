@@ -58,11 +58,14 @@ def test_kinetic_energy_gradient_matches_fd(dam, path):
     assert abs(ad - fd) <= REL_TOL * abs(fd), f"{path}: AD {ad:.6e} vs FD {fd:.6e}"
 
 
-def test_vmap_grad_equals_per_member_grad(dam):
+@pytest.mark.parametrize("batch_size", [None, 2])
+def test_vmap_grad_equals_per_member_grad(dam, batch_size):
+    """``ensemble(grad)``: all three members under one ``vmap`` (None), or a ``lax.map`` of vmapped
+    pairs and a remainder of one (2), equal each member's own gradient."""
     scene, vg = dam["scene"], dam["vg"]
     pb = ensembles.batch(scene.params, 3, {"fluid.c0": jnp.array([25.0, 31.3, 40.0]),
                                            "fluid.alpha": jnp.array([0.01, 0.02, 0.05])})
-    values, grads = ensembles.ensemble(lambda p: vg(p, scene.state))(pb)
+    values, grads = ensembles.ensemble(lambda p: vg(p, scene.state), batch_size=batch_size)(pb)
     for i in range(3):
         v_i, g_i = vg(ensembles.member(pb, i), scene.state)
         assert abs(float(values[i]) - float(v_i)) <= 1e-10 * abs(float(v_i))

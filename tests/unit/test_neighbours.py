@@ -234,3 +234,37 @@ def test_displacement_trigger_rebuilds_before_the_list_goes_stale(moving_column)
     # same pairs within the support, summed in another order: float32 rounding only
     assert np.max(np.abs(x - x_ref)) < 1e-5 * 0.125
     assert np.max(np.abs(v - v_ref)) < 1e-4
+
+
+def test_vmapped_build_keeps_its_conditionals_and_equals_each_member():
+    """Under ``jax.vmap`` the list build's two conditionals (the fixed walls' sort, skipped when
+    already sorted, and the fusion boundary ``_materialise``) stay conditionals instead of selects
+    of both branches (``_uniform_cond``), and each member's list equals its own build: here one
+    member's walls are sorted and the other's are not, so the batch takes the full branch."""
+    import jax.numpy as jnp
+
+    from rockjax.sph.neighbours import _uniform_cond
+
+    rng = np.random.default_rng(7)
+    nf, nw, box = 60, 40, np.array([1.0, 0.6, 0.5])
+    kind = np.array([Kind.FLUID] * nf + [Kind.WALL] * nw, np.int32)
+    grid = GridSpec.covering((0, 0, 0), tuple(box), min_cell=0.1, periodic=(False, False, False))
+    cfg = Config(n_fluid=nf, n_wall=nw, dt=1e-4, grid=grid, cutoff=0.1, skin=0.0, neighbour_capacity=64,
+                 cell_capacity=64, wall_pair_capacity=nf * 64)
+    members = [_particles(rng.uniform(0, 1, (nf + nw, 3)) * box, kind) for _ in range(2)]
+    members[0] = _jit_rebuild(members[0], cfg)[0]  # its walls now sorted by cell; the other's not
+    batch = jax.tree_util.tree_map(lambda *a: jnp.stack(a), *members)
+    vmapped = jax.vmap(lambda P: rebuild(P, cfg))
+    assert str(jax.make_jaxpr(vmapped)(batch)).count("cond[") >= 3  # the sort's and two _materialise
+    Pb, nb, sb = jax.jit(vmapped)(batch)
+    for m, P in enumerate(members):
+        P1, n1, s1 = _jit_rebuild(P, cfg)
+        assert int(sb[m]) == int(s1) == 0
+        np.testing.assert_array_equal(np.asarray(Pb.pid[m]), np.asarray(P1.pid))
+        np.testing.assert_array_equal(np.asarray(nb.idx[m]), np.asarray(n1.idx))
+        np.testing.assert_array_equal(np.asarray(nb.wall_col[m]), np.asarray(n1.wall_col))
+
+    # the batched rule: the fast branch for all only when the predicate holds for every member
+    f = jax.vmap(lambda p, x: _uniform_cond(p, lambda t: t + 1, lambda t: t - 1, x))
+    np.testing.assert_array_equal(np.asarray(f(jnp.array([True, True]), jnp.zeros(2))), [1, 1])
+    np.testing.assert_array_equal(np.asarray(f(jnp.array([True, False]), jnp.zeros(2))), [-1, -1])
