@@ -13,8 +13,9 @@ of a block the list is also rebuilt (``lax.cond``) when the positions that step 
 ``skin / 2`` from where the list was built (``needs_rebuild``). So a list is never used stale,
 ``rebuild_every`` becomes the longest a list is kept, and a small skin (fewer neighbour slots) can
 be run with long blocks: the list is rebuilt only as often as the flow requires. Under ``jax.vmap``
-the ``cond`` becomes a select that evaluates the rebuild every step (correct, but slow): ensembles
-should pass ``rebuild_on_displacement=False`` with a skin that covers ``rebuild_every`` steps.
+the ``cond`` becomes a select that evaluates the rebuild every step (correct, but slow): vmapped
+ensembles should pass ``rebuild_on_displacement=False`` with a skin that covers ``rebuild_every``
+steps (``ensembles.ensemble`` maps members one at a time on the CPU, where the ``cond`` stays one).
 Measured (3D dam break, f32, 2-core CPU, ``experiments/results/bench_sph_ab.jsonl``): skin 0.45 dx
 with ``rebuild_every = 32`` and the trigger vs skin 0.6 dx every 8 steps: 1.15-1.44x faster at 21k
 fluid from rest (K 144 vs 160, one build per 32 steps), 1.05-1.2x at 5.5k in the developed surge
