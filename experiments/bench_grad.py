@@ -320,8 +320,7 @@ def main(argv=None):
             n = mult * T
 
             def fwd(p, n=n):
-                s, _ = observed(config, p, n, None, state=state0, checkpoint=False, prime=False,
-                            rebuild_on_displacement=False)  # a cond under vmap runs both branches
+                s, _ = observed(config, p, n, None, state=state0, checkpoint=False, prime=False)
                 return obj(s, p)
 
             def loss(p, n=n, ck=True):
