@@ -101,6 +101,22 @@ def timed(fn, *args, repeats: int):
     return statistics.median(ts)
 
 
+def alternated(fns: dict, *args, repeats: int) -> dict:
+    """Median seconds of each ``fns[key](*args)``, the functions called in turn ``repeats`` times
+    after one warm-up call each (this machine's load moves single timings by tens of per cent)."""
+    import jax
+
+    for f in fns.values():
+        jax.block_until_ready(f(*args))
+    times = {k: [] for k in fns}
+    for _ in range(max(1, repeats)):
+        for k, f in fns.items():
+            t = time.perf_counter()
+            jax.block_until_ready(f(*args))
+            times[k].append(time.perf_counter() - t)
+    return {k: statistics.median(ts) for k, ts in times.items()}
+
+
 def step_vjp(config, state, params, repeats: int) -> dict:
     """One step (``rockjax.step.advance``): forward and forward + vector-Jacobian product (best of
     ``5 * repeats`` runs: the per-step times are short and the machine is shared), and, in each
@@ -166,21 +182,13 @@ def adjoint_ab(scene, steps: int, repeats: int, tiles=(0, 512)) -> list[dict]:
             return obj(observed(config, p, steps, None, state=state0, checkpoint=True, prime=False)[0], p)
 
         with hand_pullbacks(hand):
-            fns[adjoint, tile, hand] = [jax.jit(fwd).lower(scene.params).compile(),
-                                        jax.jit(jax.grad(loss)).lower(scene.params).compile()]
-        for f in fns[adjoint, tile, hand]:
-            jax.block_until_ready(f(scene.params))
-    times = {v: ([], []) for v in variants}
-    for _ in range(repeats):
-        for v in variants:
-            for k, f in enumerate(fns[v]):
-                t = time.perf_counter()
-                jax.block_until_ready(f(scene.params))
-                times[v][k].append(time.perf_counter() - t)
-    best_fwd = min(statistics.median(times[v][0]) for v in variants)
+            fns[adjoint, tile, hand, "forward"] = jax.jit(fwd).lower(scene.params).compile()
+            fns[adjoint, tile, hand, "grad"] = jax.jit(jax.grad(loss)).lower(scene.params).compile()
+    times = alternated(fns, scene.params, repeats=repeats)
+    best_fwd = min(times[v + ("forward",)] for v in variants)
     out = []
     for adjoint, tile, hand in variants:
-        f, g = (statistics.median(x) for x in times[adjoint, tile, hand])
+        f, g = times[adjoint, tile, hand, "forward"], times[adjoint, tile, hand, "grad"]
         out.append(dict(bench="adjoint_ab", adjoint=adjoint.value, row_tile=tile, steps=steps, repeats=repeats,
                         pullbacks=("hand" if hand else "jax") if adjoint == Adjoint.PAIR_SUMS else None,
                         forward_s=f, grad_s=g, grad_over_forward=g / f, grad_over_best_forward=g / best_fwd,
@@ -215,18 +223,11 @@ def levels_ab(scene, steps: int, repeats: int, levels=(1, 2)) -> list[dict]:
 
         with saved_pair_sums(save):
             fns[lv, save] = jax.jit(jax.grad(loss)).lower(scene.params).compile()
-    times = {k: [] for k in fns}
-    for k, f in fns.items():
-        jax.block_until_ready(f(scene.params))
-    for _ in range(repeats):
-        for k, f in fns.items():
-            t = time.perf_counter()
-            jax.block_until_ready(f(scene.params))
-            times[k].append(time.perf_counter() - t)
-    f = statistics.median(times["forward"])
+    times = alternated(fns, scene.params, repeats=repeats)
+    f = times["forward"]
     return [dict(bench="levels_ab", checkpoint_levels=lv, saved_pair_sums=save, adjoint=config.effective_adjoint.value,
-                 steps=steps, repeats=repeats, forward_s=f, grad_s=statistics.median(times[lv, save]),
-                 grad_over_forward=statistics.median(times[lv, save]) / f,
+                 steps=steps, repeats=repeats, forward_s=f, grad_s=times[lv, save],
+                 grad_over_forward=times[lv, save] / f,
                  grad_temp_bytes=int(fns[lv, save].memory_analysis().temp_size_in_bytes),
                  date=time.strftime("%Y-%m-%d"))
             for lv, save in variants]
@@ -368,8 +369,7 @@ def main(argv=None):
             return obj(s, p)
 
         # per batch: one by one (a jitted single member, called per member), vmap (all members at
-        # once, batch_size None) and map (one at a time in a lax.map, batch_size 1), timed in
-        # alternation (this machine's load moves single timings by tens of per cent): medians
+        # once, batch_size None) and map (one at a time in a lax.map, batch_size 1), alternated
         single = jax.jit(one)
         ens = dict(rebuild_on_displacement=False, repeats=args.repeats, date=time.strftime("%Y-%m-%d"))
         for b in args.batches:
@@ -379,17 +379,9 @@ def main(argv=None):
             for mode, size in (("vmap", None), ("map", 1)):
                 if mode in args.ensemble_modes and not (mode == "map" and b == 1):
                     fns[mode] = ensembles.ensemble(one, batch_size=size)
-            times = {k: [] for k in fns}
-            for f in fns.values():
-                jax.block_until_ready(f(pb))  # compile
-            for _ in range(max(1, args.repeats)):
-                for k, f in fns.items():
-                    t = time.perf_counter()
-                    jax.block_until_ready(f(pb))
-                    times[k].append(time.perf_counter() - t)
-            t_one = statistics.median(times["one_by_one"])
-            for k, ts in times.items():
-                tb = statistics.median(ts)
+            times = alternated(fns, pb, repeats=args.repeats)
+            t_one = times["one_by_one"]
+            for k, tb in times.items():
                 print(json.dumps(dict(base, bench="ensemble", mode=k, batch=b, steps=n, seconds=tb,
                                       scenario_steps_per_s=b * n / tb, speedup_vs_one_by_one=t_one / tb, **ens)),
                       flush=True)

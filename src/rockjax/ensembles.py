@@ -150,19 +150,24 @@ def _axes(in_axes, n_args: int) -> tuple:
     return tuple(ax)
 
 
+def _members(args: tuple, ax: tuple) -> int:
+    """The batch size the batched arguments (``ax`` 0) agree on (ValueError if none or they disagree)."""
+    sizes = {_size(a) for a, x in zip(args, ax) if x == 0}
+    if not sizes:
+        raise ValueError("ensemble: no batched argument (in_axes all None)")
+    if len(sizes) != 1:
+        raise ValueError(f"ensemble: batched arguments disagree on the batch size ({sorted(sizes)})")
+    return sizes.pop()
+
+
 def _mapped(fn: Callable, in_axes, batch_size: Optional[int]) -> Callable:
     """``fn`` over the leading axis of the batched arguments, ``batch_size`` members per vmapped pass
     (None: all at once), the passes in a ``lax.map`` (a scan: one member at a time when 1)."""
 
     def run(*args):
         ax = _axes(in_axes, len(args))
+        n = _members(args, ax)
         batched = tuple(a for a, x in zip(args, ax) if x == 0)
-        if not batched:
-            raise ValueError("ensemble: no batched argument (in_axes all None)")
-        sizes = {_size(a) for a in batched}
-        if len(sizes) != 1:
-            raise ValueError(f"ensemble: batched arguments disagree on the batch size ({sorted(sizes)})")
-        n = sizes.pop()
 
         def one(members):
             it = iter(members)
@@ -216,10 +221,7 @@ def ensemble(fn: Callable, *, in_axes=0, batch_size="auto", shard: bool = False,
 
     def batched(*args):
         ax = _axes(in_axes, len(args))
-        sizes = {_size(a) for a, x in zip(args, ax) if x == 0}
-        if len(sizes) != 1:
-            raise ValueError(f"ensemble: batched arguments disagree on the batch size ({sorted(sizes)})")
-        n = sizes.pop()
+        n = _members(args, ax)
         pad = (-n) % n_dev
         if pad:
             if jax.process_count() > 1:
