@@ -3,7 +3,8 @@
 The public API, re-exported explicitly:
 
 * the three pytrees: ``Config`` (static), ``Params`` (calibratable), ``State`` (dynamic), plus
-  the scheme enums and ``Status`` bits;
+  the fluid schemes (``WCSPH``, ``SeedScheme``; their terms in ``rockjax.sph``), the remaining
+  enums and ``Status`` bits;
 * ``make_step(config) -> step(state, params)``; ``prime``; ``make_rollout`` / ``rollout``;
 * ``simulate(scene, t_end=...)`` (the host driver) and ``SimulationError``;
 * ``scenes`` (built-in scene builders returning a ``Scene``), ``observables``, ``io``;
@@ -13,22 +14,23 @@ The public API, re-exported explicitly:
 
 __version__ = "0.1.0"
 
-from . import blocks, calibrate, coupling, ensembles, io, observables, scenes
+from . import blocks, calibrate, coupling, ensembles, io, observables, scenes, sph
 from .driver import Result, SimulationError, simulate
 from .rollout import make_rollout, rollout
 from .scenes import Scene
+from .sph.schemes import WCSPH, SeedScheme
 from .step import make_step, prime
 from .types import (
-    Adjoint, Config, Coupling, GatherForm, CouplingParams, CouplingState, DensityDiffusion, FluidParams, GridSpec, KernelKind, Kind,
-    NeighbourList, Params, Particles, Scheme, SeedGradient, State, Status, Viscosity, WallModel,
+    Adjoint, Config, Coupling, GatherForm, CouplingParams, CouplingState, FluidParams, GridSpec, Kind,
+    NeighbourList, Params, Particles, State, Status,
 )
 
 __all__ = [
     "__version__",
     "Config", "Params", "FluidParams", "State", "Particles", "NeighbourList", "GridSpec",
     "CouplingParams", "CouplingState",
-    "Scheme", "KernelKind", "Viscosity", "WallModel", "DensityDiffusion", "SeedGradient", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
+    "WCSPH", "SeedScheme", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
     "make_step", "prime", "make_rollout", "rollout",
     "simulate", "Result", "SimulationError",
-    "Scene", "scenes", "observables", "io", "blocks", "coupling", "calibrate", "ensembles",
+    "Scene", "scenes", "observables", "io", "sph", "blocks", "coupling", "calibrate", "ensembles",
 ]

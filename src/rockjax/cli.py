@@ -18,6 +18,8 @@ import json
 import os
 import sys
 
+from .sph.terms import names
+
 _EPILOG = """examples:
   rockjax list                                   the built-in scenes
   rockjax run dam_break --dx 0.05 --t-end 0.5    a built-in scene at a coarse resolution
@@ -106,7 +108,7 @@ def describe(scene, t_end: float) -> dict:
     bytes_est = 4 * (counts["fluid"] + counts["wall"]) * 24 + 4 * c.n_fluid * c.neighbour_capacity
     return {"scene": scene.name, "fluid": counts["fluid"], "wall": counts["wall"], "blocks": n_blocks,
             "dt_s": float(f"{c.dt:.4g}"), "steps": int(round(t_end / c.dt)),
-            "stages": ",".join(s for s, on in (("sph-" + c.scheme.value, c.n_fluid > 0), ("blocks", n_blocks > 0),
+            "stages": ",".join(s for s, on in (("sph-" + c.scheme.name, c.n_fluid > 0), ("blocks", n_blocks > 0),
                                              ("joint-water", n_blocks > 0 and c.blocks.joint_water),
                                              ("coupling-" + c.coupling.value, c.coupling.value != "none")) if on),
             "memory_MB_est": round(4 * bytes_est / 2**20, 1)}
@@ -128,7 +130,7 @@ def _add_run(sub) -> None:
                    help="end time in seconds (default: the file's [run] t_end, else 1.0)")
     p.add_argument("--dx", type=float, default=None,
                    help="particle spacing in metres (default: the scene's or the file's)")
-    p.add_argument("--scheme", choices=["wcsph", "seed"], default=None, help="SPH scheme (default wcsph)")
+    p.add_argument("--scheme", choices=names("scheme"), default=None, help="SPH scheme (default wcsph)")
     p.add_argument("--out", default=None, help="HDF5 output file (default: the file's [output] out, else none)")
     p.add_argument("--frame-dt", type=float, default=None, help="output interval in seconds")
     p.add_argument("--coupling", choices=["penalty", "boundary_particles", "boundary_integral"], default=None,

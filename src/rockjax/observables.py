@@ -10,10 +10,8 @@ from __future__ import annotations
 import jax.numpy as jnp
 from jax.scipy.special import logsumexp
 
-from .sph.eos import tait_pressure
-from .sph.kernels import kernel_pair
 from .sph.neighbours import min_image
-from .types import Config, Kind, Params, Scheme, State
+from .types import Config, Kind, Params, State
 
 __all__ = ["surge_front", "smooth_max", "energies", "probe_pressure", "fluid_mass", "gauge_elevation",
            "runup", "smooth_runup", "block_energies", "impact_velocity", "scene_observer"]
@@ -50,16 +48,7 @@ def energies(state: State, params: Params, config: Config) -> dict:
     m = jnp.where(fluid, f.rho0 * P.vol, 0.0)
     kinetic = 0.5 * jnp.sum(m * jnp.sum(P.v * P.v, -1))
     potential = -jnp.sum(m * (P.x @ params.gravity))
-    rho = P.rho
-    if config.scheme == Scheme.WCSPH:
-        g = config.gamma
-        B = f.rho0 * f.c0**2 / g
-        # e(rho) = B/(g-1) [ (rho/rho0)^(g-1) - 1 ] / rho0 ... integral of p/rho^2 from rho0
-        e = B / rho * (jnp.power(rho / f.rho0, g) / (g - 1.0) + 1.0) - B / f.rho0 * (g / (g - 1.0))
-    else:
-        c2 = f.c0**2
-        ratio = jnp.maximum(rho, f.rho0) / f.rho0  # seed clamps p >= 0 (sph/seed.py, deviation 2)
-        e = c2 * (jnp.log(ratio) + 1.0 / ratio - 1.0)
+    e = config.scheme.elastic_energy(P.rho, params)
     elastic = jnp.sum(m * e)
     return {"kinetic": kinetic, "potential": potential, "elastic": elastic, "total": kinetic + potential + elastic}
 
@@ -67,12 +56,12 @@ def energies(state: State, params: Params, config: Config) -> dict:
 def probe_pressure(state: State, params: Params, config: Config, points) -> jnp.ndarray:
     """Shepard-interpolated fluid pressure [Pa] at probe points [M, 3] (brute force over particles)."""
     P = state.particles
-    w_fn, _ = kernel_pair(config.kernel)
+    w_fn = config.scheme.kernel.w
     d = [min_image(points[:, None, a] - P.x[None, :, a], a, config.grid) for a in range(3)]
     r = jnp.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
     fluid = P.kind == Kind.FLUID
     w = jnp.where(fluid[None, :], w_fn(r, params.fluid.h), 0.0) * P.vol[None, :]
-    p = P.p if config.scheme == Scheme.SEED else tait_pressure(P.rho, params.fluid.rho0, params.fluid.c0, config.gamma)
+    p = config.scheme.pressure(P, params)
     return jnp.sum(w * p[None, :], 1) / jnp.maximum(jnp.sum(w, 1), 1e-30)
 
 

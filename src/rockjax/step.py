@@ -10,7 +10,7 @@ is never traced):
   (``rockjax.blocks``), with the fluid loads of the previous step as external forces;
 * boundary particles (``Coupling.BOUNDARY_PARTICLES``): particles carried by blocks are placed at
   the new block poses before the fluid sees them;
-* fluid (``config.n_fluid > 0``): ``Scheme.WCSPH`` (``sph.wcsph``) or ``Scheme.SEED`` (``sph.seed``);
+* fluid (``config.n_fluid > 0``): ``config.scheme`` (``sph.schemes``: ``WCSPH`` or ``SeedScheme``);
 * coupling: ``Coupling.PENALTY``, seed Eq 22 on the fluid at the end of the step, the reaction
   stored for the blocks' next step (``coupling.penalty``); ``Coupling.BOUNDARY_PARTICLES``, the
   loads of the block particles from the WCSPH momentum pass's pair terms, over the list's short
@@ -34,16 +34,11 @@ import functools
 import jax
 import jax.numpy as jnp
 
-from .sph import seed, wcsph
 from .sph.neighbours import rebuild
 from .sph.kernels import SUPPORT_FACTOR
-from .types import Config, Coupling, Kind, Params, Scheme, State, Status, Viscosity
+from .types import Config, Coupling, Kind, Params, State, Status
 
 __all__ = ["make_step", "refresh", "advance", "prime", "check"]
-
-
-def _fluid(config: Config):
-    return wcsph if config.scheme == Scheme.WCSPH else seed
 
 
 @functools.partial(jax.jit, static_argnames=("config",))
@@ -92,9 +87,7 @@ def check(state: State, params: Params, config: Config) -> jax.Array:
         return status.astype(jnp.int32)
     fluid = P.kind == Kind.FLUID
     vmax = jnp.sqrt(jnp.max(jnp.where(fluid, jnp.sum(P.v * P.v, -1), 0.0)))
-    unstable = config.dt > 0.5 * f.h / (f.c0 + vmax)
-    if config.scheme == Scheme.SEED or config.viscosity == Viscosity.LAMINAR:
-        unstable |= config.dt * f.nu > 0.25 * f.h**2
+    unstable = config.scheme.unstable_dt(config.dt, params, vmax)
     status |= jnp.where(unstable, Status.UNSTABLE_DT, 0)
     return status.astype(jnp.int32)
 
@@ -179,18 +172,19 @@ def advance(state: State, params: Params, config: Config) -> State:
         if bodies:
             # the loads come out of the momentum pass (the reaction of exactly what the fluid gets)
             from .coupling import boundary_particles
+            from .sph.schemes import SeedScheme
 
-            if config.scheme == Scheme.WCSPH:
-                P, pair_forces = wcsph.advance(state.particles, state.nbrs, params, config, bodies=bodies)
+            if not isinstance(config.scheme, SeedScheme):
+                P, pair_forces = config.scheme.advance(state.particles, state.nbrs, params, config, bodies=bodies)
                 load = boundary_particles.from_pair_forces(P, pair_forces, bodies, state.blocks)
             else:  # the seed scheme's forces at the start of the step (symplectic Euler), per block
-                P, acc_bodies = seed.advance(state.particles, state.nbrs, params, config, bodies=bodies)
+                P, acc_bodies = config.scheme.advance(state.particles, state.nbrs, params, config, bodies=bodies)
                 # lever arms from the positions the forces acted at (before the drift)
                 load = boundary_particles.from_accelerations(state.particles, acc_bodies, bodies, state.blocks, params,
                                                              config)
             state = _guard(state.replace(particles=P, coupling=load), params, config, kick=True)
         else:
-            P = _fluid(config).advance(state.particles, state.nbrs, params, config)
+            P = config.scheme.advance(state.particles, state.nbrs, params, config)
             state = _fluid_load(state.replace(particles=P), params, config, kick=True)
     state = state.replace(step=state.step + 1)
     return state.replace(status=state.status | check(state, params, config))
@@ -205,7 +199,7 @@ def prime(state: State, params: Params, config: Config) -> State:
     it took ~30 s on 2 CPU cores for a small coupled scene."""
     state = refresh(_place_block_particles(state, config), config)
     if config.n_fluid > 0:
-        P = _fluid(config).prime(state.particles, state.nbrs, params, config)
+        P = config.scheme.prime(state.particles, state.nbrs, params, config)
         state = _fluid_load(state.replace(particles=P), params, config, kick=False)
     return state
 

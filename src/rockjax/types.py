@@ -21,12 +21,6 @@ import jax
 import jax.numpy as jnp
 
 __all__ = [
-    "Scheme",
-    "KernelKind",
-    "Viscosity",
-    "WallModel",
-    "DensityDiffusion",
-    "SeedGradient",
     "Adjoint",
     "GatherForm",
     "Coupling",
@@ -46,67 +40,8 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------------------------
-# Scheme choices (enums, not strings)
+# Choices that are not fluid terms (the fluid's are objects: ``rockjax.sph.schemes``)
 # --------------------------------------------------------------------------------------------
-
-
-class Scheme(enum.Enum):
-    """Which SPH scheme advances the fluid."""
-
-    SEED = "seed"  #: Mikola & Sitar (2013): density summation, p = k(rho - rho0), Mueller kernels, symplectic Euler
-    WCSPH = "wcsph"  #: continuity + delta-SPH, Tait EOS, kick-drift-kick (default)
-
-
-class KernelKind(enum.Enum):
-    """Smoothing kernel of the WCSPH scheme (the seed scheme always uses the Mueller et al. set)."""
-
-    WENDLAND_C2 = "wendland_c2"
-    CUBIC_SPLINE = "cubic_spline"
-
-
-class Viscosity(enum.Enum):
-    """Viscous term of the WCSPH scheme."""
-
-    ARTIFICIAL = "artificial"  #: Monaghan (1992), coefficient ``Params.fluid.alpha``
-    LAMINAR = "laminar"  #: Morris et al. (1997) / Lo & Shao (2002), kinematic viscosity ``Params.fluid.nu``
-
-
-class WallModel(enum.Enum):
-    """How wall particles get their pressure and density."""
-
-    ADAMI = "adami"  #: generalised wall condition, Adami, Hu & Adams (2012)
-    DYNAMIC = "dynamic"  #: dynamic boundary particles (Crespo et al. 2007, as in DualSPHysics)
-
-
-class DensityDiffusion(enum.Enum):
-    """Density-diffusion (delta-SPH) term of the WCSPH continuity equation."""
-
-    NONE = "none"
-    MOLTENI = "molteni"  #: Molteni & Colagrossi (2009)
-    #: Fourtakas et al. (2019): Molteni minus the hydrostatic part of each fluid pair's density
-    #: difference, taken about the pair's mean density so that it is odd in the pair and the term
-    #: only moves density between particles (``sph.wcsph.hydrostatic_pair_difference``)
-    FOURTAKAS = "fourtakas"
-    #: the same with Fourtakas et al.'s own hydrostatic difference, from the surface's density (not
-    #: odd in the pair): the default before 2026-11-26, kept for comparisons (it lets a column at
-    #: rest creep, ``experiments/energy_creep.py``)
-    FOURTAKAS_SURFACE = "fourtakas_surface"
-    #: Antuono et al. (2010) consistent delta-SPH: Molteni minus the linear part of the density
-    #: difference, from renormalised density gradients (one extra neighbour pass per step)
-    ANTUONO = "antuono"
-
-
-class SeedGradient(enum.Enum):
-    """Kernel whose gradient the seed scheme's pressure force uses (``Scheme.SEED`` only)."""
-
-    #: the spiky kernel (seed Eq 15, after Mueller et al. 2003), as the paper: not the gradient of
-    #: the poly6 summation density, so the force is not that of the scheme's elastic energy and the
-    #: water never comes to rest (``tests/stress/test_long_run.py``: kinetic energy ~2e-2 m g 2a
-    #: after 37 s; ``experiments/seed_rest.py``)
-    SPIKY = "spiky"
-    #: the poly6 kernel's, the same kernel as the density sum (normalised alike): the water comes to
-    #: rest and the energy bounds of the stress suite hold (``experiments/seed_rest.py``)
-    POLY6 = "poly6"
 
 
 class Adjoint(enum.Enum):
@@ -256,6 +191,12 @@ class GridSpec:
         return GridSpec(tuple(origin), tuple(cell), tuple(shape), tuple(bool(p) for p in periodic))  # type: ignore[arg-type]
 
 
+def _default_scheme():
+    from .sph.schemes import WCSPH
+
+    return WCSPH()
+
+
 @dataclasses.dataclass(frozen=True)
 class Config:
     """Static description of a simulation. Hashable; a static argument of jit.
@@ -291,9 +232,9 @@ class Config:
             2026-11-27, 3D dam break, f32: 23k rows 1.29 ms/step in blocks of 512 vs 0.62 ms in
             one; at 80k rows the blocked step took 4.35 ms). A speed setting only: the result
             does not depend on it beyond float rounding (``effective_row_tile``).
-        scheme, kernel, viscosity, wall_model, density_diffusion: scheme choices.
-        seed_gradient: the kernel of the seed scheme's pressure gradient (``SeedGradient``; the
-            paper's spiky by default; ignored by WCSPH).
+        scheme: the fluid scheme and its terms, a static object (``rockjax.sph.schemes``):
+            ``WCSPH(kernel=..., viscosity=..., walls=..., diffusion=..., gamma=7)`` (default) or
+            ``SeedScheme(gradient=..., walls=...)``.
         gather: how the WCSPH pair sums gather the neighbours' values (``GatherForm``): one 1-D
             gather per value or one row gather of them stacked; a speed setting only (the same
             numbers). None (default): ``COMPONENTS`` on the CPU (its forward ~1.5x faster there),
@@ -311,7 +252,6 @@ class Config:
             8.4k-23k, and at 2.9k too, 6.4 vs 6.9 forwards, but the default keeps ``AUTODIFF``
             there so that ``jax.jvp`` works). Forward mode
             (``jax.jvp``) through a step needs ``AUTODIFF``.
-        gamma: Tait exponent (WCSPH).
         cfl: Courant number used for the host time step and the in-jit stability check.
         blocks: the static block description (``rockjax.blocks.BlockConfig``), or None for no blocks.
         coupling: how water and blocks exchange forces (``Coupling``); NONE when either is absent;
@@ -345,15 +285,9 @@ class Config:
     n_block_particles: int = 0
     body_pair_capacity: int = 0
     row_tile: Optional[int] = None
-    scheme: Scheme = Scheme.WCSPH
-    kernel: KernelKind = KernelKind.WENDLAND_C2
-    viscosity: Viscosity = Viscosity.ARTIFICIAL
-    wall_model: WallModel = WallModel.ADAMI
-    density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS
-    seed_gradient: SeedGradient = SeedGradient.SPIKY
+    scheme: Any = dataclasses.field(default_factory=lambda: _default_scheme())
     adjoint: Optional[Adjoint] = None
     gather: Optional[GatherForm] = None
-    gamma: float = 7.0
     cfl: float = 0.25
     blocks: Optional[Any] = None
     coupling: Coupling = Coupling.NONE
@@ -370,9 +304,14 @@ class Config:
             raise ValueError(f"Config.dt must be a positive finite time step in seconds (got {self.dt})")
         if self.coupling != Coupling.NONE and (self.blocks is None or self.n_fluid == 0):
             raise ValueError("Config.coupling needs both water (n_fluid > 0) and blocks; set Coupling.NONE")
-        if self.coupling == Coupling.BOUNDARY_INTEGRAL and self.scheme != Scheme.WCSPH:
-            raise ValueError("Config.coupling BOUNDARY_INTEGRAL needs scheme WCSPH (its wall term is written for "
-                             "one kernel and the continuity equation); use PENALTY or BOUNDARY_PARTICLES")
+        from .sph.schemes import FluidScheme
+
+        if not isinstance(self.scheme, FluidScheme):
+            raise ValueError(f"Config.scheme must be a fluid scheme object (rockjax.WCSPH(...) or rockjax.SeedScheme(...)), "
+                             f"got {self.scheme!r}")
+        if self.coupling == Coupling.BOUNDARY_INTEGRAL and not self.scheme.continuity:
+            raise ValueError("Config.coupling BOUNDARY_INTEGRAL needs scheme WCSPH (a scheme with the continuity "
+                             "equation, for which its wall term is written); use PENALTY or BOUNDARY_PARTICLES")
         if not self.has_particles:
             return
         if self.grid is None:
@@ -478,7 +417,7 @@ class FluidParams:
         rho0: rest density [kg/m^3].
         c0: numerical speed of sound [m/s] (Tait B = rho0 c0^2 / gamma; seed k = c0^2).
         h: smoothing length [m]; kernel support is 2h (``kernel_support``).
-        alpha: Monaghan artificial-viscosity coefficient [-] (WCSPH, ``Viscosity.ARTIFICIAL``).
+        alpha: Monaghan artificial-viscosity coefficient [-] (WCSPH, ``sph.viscosity.Artificial``).
         nu: kinematic viscosity [m^2/s] (WCSPH laminar term; seed Eq 18 with mu = rho0 nu).
         delta: delta-SPH density-diffusion coefficient [-].
         wall_viscosity: factor [-] on the viscous term between fluid and non-fluid (wall, block)
@@ -546,7 +485,7 @@ class Particles:
         None when the scene has no such particles.
     x_body: [N, 3] m, the particle's position in its block's body frame (None likewise).
     grad_rho: [N, 3] kg/m^4, renormalised density gradient at the last momentum pass (fluid rows;
-        zero on walls), for ``DensityDiffusion.ANTUONO``; None otherwise (``wcsph.prime`` fills it).
+        zero on walls), for ``sph.diffusion.Antuono``; None otherwise (``wcsph.prime`` fills it).
     """
 
     x: jax.Array

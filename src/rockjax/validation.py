@@ -93,7 +93,7 @@ def energy_history(result, *, stride: int = 1) -> dict:
     from .observables import energies
     from .sph import seed
     from .step import refresh
-    from .types import Scheme
+    from .sph.schemes import SeedScheme
 
     scene = result.scene
     config, params = scene.config, scene.params
@@ -106,7 +106,7 @@ def energy_history(result, *, stride: int = 1) -> dict:
         P = base.replace(x=jnp.asarray(x, base.x.dtype), v=jnp.asarray(v, base.v.dtype),
                          rho=jnp.asarray(rho, base.rho.dtype))
         st = refresh(state.replace(particles=P), config)
-        if config.scheme == Scheme.SEED:
+        if isinstance(config.scheme, SeedScheme):
             return seed.energies(st.particles, st.nbrs, params, config)
         return energies(st, params, config)
 

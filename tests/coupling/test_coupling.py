@@ -234,7 +234,7 @@ def test_seed_scheme_boundary_particle_load_is_the_reaction():
     from rockjax.step import _advance_blocks, _place_block_particles
 
     scene, _ = _submerged(Coupling.BOUNDARY_PARTICLES)
-    config = scene.config.replace(scheme=rj.Scheme.SEED, coupling_guard=False)
+    config = scene.config.replace(scheme=rj.SeedScheme(), coupling_guard=False)
     params = scene.params.replace(fluid=scene.params.fluid.replace(nu=1e-3))
     nf = config.n_fluid
 
@@ -268,4 +268,4 @@ def test_boundary_integral_needs_wcsph():
     scene = block_drop(dx=0.05, box_size=(0.1, 0.1, 0.1), tank_size=(0.3, 0.3), water_depth=0.15, drop_height=0.1,
                        coupling=Coupling.BOUNDARY_INTEGRAL)
     with pytest.raises(ValueError, match="BOUNDARY_INTEGRAL needs scheme WCSPH"):
-        scene.config.replace(scheme=rj.Scheme.SEED)
+        scene.config.replace(scheme=rj.SeedScheme())

@@ -47,11 +47,12 @@ from rockjax.step import advance
 DX = 0.05
 CASES = {
     "dam": dict(scene="dam", kw={}, row_tile=None, backward_tile=128),
-    "dam-antuono-laminar-dynamic": dict(scene="dam", kw=dict(density_diffusion=rj.DensityDiffusion.ANTUONO,
-                                                             viscosity=rj.Viscosity.LAMINAR,
-                                                             wall_model=rj.WallModel.DYNAMIC), row_tile=7),
+    "dam-antuono-laminar-dynamic": dict(scene="dam", kw=dict(scheme=rj.WCSPH(diffusion=rj.sph.Antuono(),
+                                                                             viscosity=rj.sph.Laminar(),
+                                                                             walls=rj.sph.DynamicWalls())),
+                                        row_tile=7),
     "wedge": dict(scene="wedge", kw=dict(coupling=rj.Coupling.BOUNDARY_PARTICLES), row_tile=None),
-    "dam-no-diffusion": dict(scene="dam", kw=dict(density_diffusion=rj.DensityDiffusion.NONE), row_tile=7),
+    "dam-no-diffusion": dict(scene="dam", kw=dict(scheme=rj.WCSPH(diffusion=rj.sph.NoDiffusion())), row_tile=7),
 }
 
 #: which cases' pair functions have a hand-derived pullback (``rockjax.sph.pullbacks``): the

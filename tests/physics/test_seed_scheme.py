@@ -29,7 +29,7 @@ def test_lattice_sum_matches_direct_sum():
 
 @pytest.fixture(scope="module")
 def tank():
-    return rj.scenes.hydrostatic_tank(dx=0.05, length=0.2, width=0.2, depth=0.2, scheme=rj.Scheme.SEED)
+    return rj.scenes.hydrostatic_tank(dx=0.05, length=0.2, width=0.2, depth=0.2, scheme=rj.SeedScheme())
 
 
 def test_lattice_at_rest_density_and_pressure_never_negative(tank):
@@ -57,8 +57,7 @@ def test_lone_particle_does_not_enter_the_floor():
     fluid = np.array([[0.5 * dx, 0.5 * dx, 2.0 * dx]])
     scene = fluid_scene(name="drop", dx=dx, fluid_x=fluid, wall_x=walls, domain_lo=[-4 * dx, -4 * dx, -layers * dx],
                         domain_hi=[5 * dx, 5 * dx, 6 * dx], periodic=(False, False, False), surface_z=None, c0=c0,
-                        scheme=rj.Scheme.SEED, kernel=rj.KernelKind.WENDLAND_C2, viscosity=rj.Viscosity.ARTIFICIAL,
-                        wall_model=rj.WallModel.ADAMI, density_diffusion=rj.DensityDiffusion.NONE, h_factor=1.3,
+                        scheme=rj.SeedScheme(), h_factor=1.3,
                         alpha=0.0, nu=1e-6, delta=0.0, skin_factor=0.6, rebuild_every=4, cfl=0.25, meta={})
     P = scene.state.particles
     v = P.v.at[0, 2].set(-c0 / 10)
@@ -74,14 +73,14 @@ def test_lone_particle_does_not_enter_the_floor():
     assert vz[-1] > 0.0
 
 
-@pytest.mark.parametrize("gradient", [rj.SeedGradient.POLY6, rj.SeedGradient.SPIKY])
+@pytest.mark.parametrize("gradient", [rj.sph.Poly6Gradient(), rj.sph.SpikyGradient()], ids=["poly6", "spiky"])
 def test_pressure_force_is_half_the_elastic_energys_gradient_with_the_density_kernel(gradient):
     """The seed scheme's pressure force against the gradient of its elastic energy
     ``E = sum_i m_i e(rho_i)``, ``e' = p / rho^2`` (``seed.energies``), on twenty water particles
     pressed together (the vertices of a regular dodecahedron 0.5 dx in radius, each moved by up to
     0.05 dx: densities ~1.4 rho0, unequal) and alone (the wall beyond the kernel's reach).
 
-    With the poly6 gradient (``SeedGradient.POLY6``, the density's kernel) it is ``-grad E / 2`` up to
+    With the poly6 gradient (``Poly6Gradient``, the density's kernel) it is ``-grad E / 2`` up to
     the difference between Mueller's form ``(p_i + p_j) / (2 rho_i rho_j)`` and half the
     energy-conserving ``p_i / rho_i^2 + p_j / rho_j^2``, which is second order in the density spread
     (4.7 % here; measured 2026-11-28: 9.4e-4 of the force, the spiky gradient's 2.1). The halving is
@@ -100,10 +99,9 @@ def test_pressure_force_is_half_the_elastic_energys_gradient_with_the_density_ke
     walls = np.array([[0.5 * dx, 0.5 * dx, 0.5 * dx]])
     scene = fluid_scene(name="cluster", dx=dx, fluid_x=fluid, wall_x=walls, domain_lo=[0.0, 0.0, 0.0],
                         domain_hi=[20 * dx, 20 * dx, 20 * dx], periodic=(False, False, False), surface_z=None, c0=10.0,
-                        scheme=rj.Scheme.SEED, kernel=rj.KernelKind.WENDLAND_C2, viscosity=rj.Viscosity.ARTIFICIAL,
-                        wall_model=rj.WallModel.ADAMI, density_diffusion=rj.DensityDiffusion.NONE, h_factor=1.3,
+                        scheme=rj.SeedScheme(), h_factor=1.3,
                         alpha=0.0, nu=1e-6, delta=0.0, skin_factor=0.6, rebuild_every=4, cfl=0.25, meta={})
-    config = scene.config.replace(seed_gradient=gradient)
+    config = scene.config.replace(scheme=rj.SeedScheme(gradient=gradient))
     st = rj.prime(scene.state, scene.params, config)
     P, params = st.particles, scene.params
     rows = np.asarray(P.kind) == rj.Kind.FLUID
@@ -118,8 +116,8 @@ def test_pressure_force_is_half_the_elastic_energys_gradient_with_the_density_ke
     pressure_force = m * (np.asarray(P.a)[rows] - np.asarray(params.gravity))  # nu ~ 0, at rest: no viscous force
     rel = np.abs(pressure_force - half_gradient).max() / np.abs(half_gradient).max()
     spread = (rho.max() - rho.min()) / rho.mean()
-    print(f"{gradient.value}: max |f - (-grad E / 2)| / max |grad E / 2| = {rel:.2e} (density spread {spread:.1%})")
-    if gradient == rj.SeedGradient.POLY6:
+    print(f"{gradient.name}: max |f - (-grad E / 2)| / max |grad E / 2| = {rel:.2e} (density spread {spread:.1%})")
+    if gradient == rj.sph.Poly6Gradient():
         # per pair, Mueller's form minus half the conserving one is
         # (rho_i - rho_j) (p_i / rho_i - p_j / rho_j) / (2 rho_i rho_j), relative to the term
         # ~ spread^2 / compression, compression = (rho - rho0) / rho (~0.3 here)

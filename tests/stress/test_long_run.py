@@ -83,26 +83,22 @@ FRAMES = 50
 
 
 #: the runs: (id, scheme, WCSPH density diffusion or the seed scheme's pressure-gradient kernel)
-RUNS = [("wcsph", rj.Scheme.WCSPH, rj.DensityDiffusion.FOURTAKAS),
-        ("wcsph-antuono", rj.Scheme.WCSPH, rj.DensityDiffusion.ANTUONO),
-        ("seed", rj.Scheme.SEED, rj.SeedGradient.SPIKY),
-        ("seed-poly6", rj.Scheme.SEED, rj.SeedGradient.POLY6)]
+RUNS = [("wcsph", rj.WCSPH(diffusion=rj.sph.Fourtakas())),
+        ("wcsph-antuono", rj.WCSPH(diffusion=rj.sph.Antuono())),
+        ("seed", rj.SeedScheme(gradient=rj.sph.SpikyGradient())),
+        ("seed-poly6", rj.SeedScheme(gradient=rj.sph.Poly6Gradient()))]
 
 
-def _scene(scheme, option):
+def _scene(scheme):
     w = 7 * DX
-    kw = {"density_diffusion": option} if scheme == rj.Scheme.WCSPH else {}
-    scene = rj.scenes.dam_break(dx=DX, column_length=A, column_width=w, column_height=2 * A, tank_length=2 * A,
-                                tank_width=w, tank_height=4 * A, periodic_y=True, scheme=scheme, **kw)
-    if scheme == rj.Scheme.SEED:
-        scene = scene.replace(config=scene.config.replace(seed_gradient=option))
-    return scene
+    return rj.scenes.dam_break(dx=DX, column_length=A, column_width=w, column_height=2 * A, tank_length=2 * A,
+                               tank_width=w, tank_height=4 * A, periodic_y=True, scheme=scheme)
 
 
 @pytest.fixture(scope="module", params=RUNS, ids=lambda r: r[0])
 def long_run(request):
-    run, scheme, option = request.param
-    scene = _scene(scheme, option)
+    run, scheme = request.param
+    scene = _scene(scheme)
     k = scene.config.rebuild_every
     per_frame = max(k, (LONG_STEPS // FRAMES) // k * k)
     n_frames = max(1, round(LONG_STEPS / per_frame))

@@ -1,4 +1,4 @@
-"""delta-SPH density diffusion terms (``DensityDiffusion``), checked against closed forms.
+"""delta-SPH density diffusion terms (``rockjax.sph.diffusion``), checked against closed forms.
 
 * The renormalised density gradient (``wcsph.density_gradient``, Randles & Libersky 1996) is
   exact for a linear density field, at the free surface and next to walls too (its matrix C_i
@@ -28,6 +28,7 @@ import pytest
 
 import rockjax as rj
 from rockjax.sph import wcsph
+from rockjax.sph.diffusion import hydrostatic_density_difference
 from rockjax.sph.neighbours import pairs
 from rockjax.step import advance, prime, refresh
 
@@ -48,7 +49,7 @@ def column(x64):
 
 
 def _rate(sc, P, idx, diffusion, rho=None):
-    config = sc.config.replace(density_diffusion=diffusion)
+    config = sc.config.replace(scheme=sc.config.scheme.replace(diffusion=diffusion))
     rho = P.rho if rho is None else rho
     pr = pairs(P.x, P.kind, idx, config)
     return np.asarray(wcsph.density_rate(pr, jnp.zeros_like(P.v), rho, P.vol, P.kind, sc.params, config))
@@ -101,14 +102,14 @@ def test_antuono_diffusion_leaves_a_linear_field_alone(column, no_fade):
     sc, P, idx = column
     nf = sc.config.n_fluid
     scale = 2 * sc.params.fluid.delta * sc.params.fluid.h * sc.params.fluid.c0 * np.abs(G).max() / (0.5 / 5)
-    molteni = _rate(sc, P, idx, rj.DensityDiffusion.MOLTENI)[:nf]
-    antuono = _rate(sc, P, idx, rj.DensityDiffusion.ANTUONO)[:nf]
+    molteni = _rate(sc, P, idx, rj.sph.Molteni())[:nf]
+    antuono = _rate(sc, P, idx, rj.sph.Antuono())[:nf]
     assert np.abs(molteni).max() > 1e-2 * float(scale), "the uncorrected term must see the truncated kernel"
     assert np.abs(antuono).max() <= 1e-9 * float(scale), np.abs(antuono).max()
 
 
-@pytest.mark.parametrize("diffusion", [rj.DensityDiffusion.MOLTENI, rj.DensityDiffusion.FOURTAKAS,
-                                       rj.DensityDiffusion.FOURTAKAS_SURFACE, rj.DensityDiffusion.ANTUONO])
+@pytest.mark.parametrize("diffusion", [rj.sph.Molteni(), rj.sph.Fourtakas(), rj.sph.FourtakasSurface(),
+                                       rj.sph.Antuono()], ids=lambda d: d.name)
 def test_diffusion_conserves_mass(column, diffusion):
     sc, P, idx = column
     nf = sc.config.n_fluid
@@ -119,13 +120,13 @@ def test_diffusion_conserves_mass(column, diffusion):
     V = sc.params.fluid.rho0 * np.asarray(P.vol)[:nf] / np.asarray(rho)[:nf]
     assert np.abs(d).max() > 0
     expected = 0.0
-    if diffusion == rj.DensityDiffusion.FOURTAKAS_SURFACE:
+    if diffusion == rj.sph.FourtakasSurface():
         config, f = sc.config, sc.params.fluid
         pr = pairs(P.x, P.kind, idx, config)
         t = wcsph.pair_terms(pr, P.kind, sc.params, config)
         g_dx = -sum(pr.d[a] * sc.params.gravity[a] for a in range(3))
         V_j = f.rho0 * jnp.take(P.vol, pr.idx) / jnp.take(rho, pr.idx)
-        rho_h = wcsph.hydrostatic_density_difference(g_dx, sc.params, config)
+        rho_h = hydrostatic_density_difference(g_dx, sc.params, config.scheme.gamma)
         term = jnp.where(t.kind_j == rj.Kind.FLUID, 2.0 * f.delta * f.h * f.c0 * V_j * rho_h * t.F, 0.0)
         expected = float(np.sum(V * np.asarray(jnp.sum(term, axis=1))))
         assert abs(expected) > 1e-6 * float(np.sum(V * np.abs(d)))  # the even part is really there
@@ -136,7 +137,7 @@ def test_fourtakas_leaves_a_hydrostatic_column_alone(column):
     """Exact hydrostatic densities (Tait, compressible) on the (unjittered) column: the Fourtakas term
     (pair-mean hydrostatic difference, exact to third order in the pair's height difference) is
     below 1e-5 of Molteni's, which sees the truncated kernel at the surface and the walls (measured
-    2026-11-26: 9.7e-7); Fourtakas et al.'s surface series (``FOURTAKAS_SURFACE``) leaves more than
+    2026-11-26: 9.7e-7); Fourtakas et al.'s surface series (``FourtakasSurface``) leaves more than
     1e-2 at the bottom layer (measured 2.3e-2: its one-sided stencil sums the series' slope error,
     ~(gamma - 2) g depth / c0^2 of the hydrostatic difference)."""
     sc, _, _ = column
@@ -147,12 +148,13 @@ def test_fourtakas_leaves_a_hydrostatic_column_alone(column):
     z = np.asarray(P.x)[:, 2]
     top = z[:nf].max() + 0.5 * (0.5 / 5)
     # the compressible hydrostatic column: dp/dz = -rho(p) g with Tait's rho(p), in closed form
-    gm = config.gamma
+    gm = config.scheme.gamma
     rho = jnp.asarray(float(f.rho0) * (1.0 + (gm - 1.0) * 9.81 * np.maximum(top - z, 0.0) / float(f.c0) ** 2)
                       ** (1.0 / (gm - 1.0)))
-    rate = {d: np.abs(_rate(sc, P, idx, d, rho=rho)[:nf]) for d in rj.DensityDiffusion if d != rj.DensityDiffusion.NONE}
-    molteni = rate[rj.DensityDiffusion.MOLTENI].max()
-    fourtakas, surface = rate[rj.DensityDiffusion.FOURTAKAS], rate[rj.DensityDiffusion.FOURTAKAS_SURFACE]
+    terms = {"molteni": rj.sph.Molteni(), "fourtakas": rj.sph.Fourtakas(), "surface": rj.sph.FourtakasSurface()}
+    rate = {k: np.abs(_rate(sc, P, idx, d, rho=rho)[:nf]) for k, d in terms.items()}
+    molteni = rate["molteni"].max()
+    fourtakas, surface = rate["fourtakas"], rate["surface"]
     print(f"max |D| / Molteni's: fourtakas {fourtakas.max() / molteni:.2e}, surface series {surface.max() / molteni:.2e}")
     assert molteni > 0.0
     assert fourtakas.max() <= 1e-5 * molteni, (fourtakas.max(), molteni)
@@ -164,7 +166,7 @@ def test_antuono_gradient_matches_finite_differences(x64):
     """grad of a few ANTUONO steps w.r.t. the diffusion coefficient delta (and c0) against central
     finite differences, float64: the renormalisation's safe inverse keeps the gradient finite and exact."""
     sc = rj.scenes.dam_break(dx=0.5 / 5, column_height=0.5, tank_length=1.0, tank_width=0.5, column_width=0.4,
-                             density_diffusion=rj.DensityDiffusion.ANTUONO)
+                             scheme=rj.WCSPH(diffusion=rj.sph.Antuono()))
     config = sc.config
     state = jax.jit(lambda s, p: prime(s, p, config))(sc.state, sc.params)
     assert state.particles.grad_rho is not None

@@ -40,10 +40,10 @@ def test_scan_rows_covers_each_row_once():
     np.testing.assert_array_equal(np.asarray(out1), 10 * np.arange(n))
 
 
-@pytest.fixture(scope="module", params=[rj.WallModel.ADAMI, rj.WallModel.DYNAMIC], ids=["adami", "dynamic"])
+@pytest.fixture(scope="module", params=[rj.sph.Adami(), rj.sph.DynamicWalls()], ids=["adami", "dynamic"])
 def primed(request, x64):
     sc = rj.scenes.dam_break(dx=0.5 / 5, column_height=0.5, tank_length=1.0, tank_width=0.5, column_width=0.4,
-                             wall_model=request.param)
+                             scheme=rj.WCSPH(walls=request.param))
     config = sc.config.replace(row_tile=0)
     state = jax.jit(lambda s, p: prime(s, p, config))(sc.state, sc.params)
     yield config, sc.params, state
@@ -92,7 +92,7 @@ def test_row_gather_equals_component_gather(primed, x64):
     b = jax.jit(lambda s: _run(rows, params, s))(state).particles
     for name in ("x", "v", "rho", "p"):
         np.testing.assert_allclose(np.asarray(getattr(b, name)), np.asarray(getattr(a, name)), rtol=1e-12, atol=1e-12)
-    if config.wall_model != rj.WallModel.ADAMI:
+    if config.scheme.walls.dynamic:
         pytest.skip("the gradient part runs with the Adami walls only (compile time)")
 
     def loss(c0, cfg):
@@ -123,7 +123,7 @@ def test_flat_wall_sums_equal_row_transpose(primed, x64):
     P0 = state.particles
     P = jax.jit(lambda s: advance(s, params, config))(state).particles
     pr = pairs(P.x, P.kind, state.nbrs.idx, config)
-    if config.wall_model == rj.WallModel.ADAMI:
+    if not config.scheme.walls.dynamic:
         p_rows, _ = wcsph.pressure(pr, P.rho, P.kind, params, config)
         np.testing.assert_allclose(np.asarray(P.p)[nf:], np.asarray(p_rows)[nf:], rtol=1e-10,
                                    atol=1e-10 * float(np.abs(p_rows).max()))

@@ -133,7 +133,7 @@ def test_coupling_guard_key(extra, guard):
 def test_builtin_form_equals_builder():
     text = '[scene]\nbuiltin = "hydrostatic_tank"\n[scene.options]\ndx = 0.05\ndepth = 0.2\nscheme = "seed"\n'
     a = load_scene(text)
-    b = rj.scenes.hydrostatic_tank(dx=0.05, depth=0.2, scheme=rj.Scheme.SEED)
+    b = rj.scenes.hydrostatic_tank(dx=0.05, depth=0.2, scheme=rj.SeedScheme())
     assert a.config == b.config
     np.testing.assert_array_equal(np.asarray(a.state.particles.x), np.asarray(b.state.particles.x))
     assert load_builtin("hydrostatic_tank", dx=0.05, depth=0.2, scheme="seed").config == b.config
@@ -441,14 +441,14 @@ def test_non_convex_fixed_mesh_is_walls_only(tmp_path):
 
 
 def test_seed_gradient_key():
-    """``[sph] seed_gradient`` sets ``Config.seed_gradient`` (the paper's spiky kernel by default);
-    a value not in ``SeedGradient``, or the key with the WCSPH scheme (where it would do nothing), is
-    refused naming the key."""
+    """``[sph] seed_gradient`` sets the seed scheme's gradient kernel (``SeedScheme.gradient``, the
+    paper's spiky kernel by default); an unknown value, or the key with the WCSPH scheme (where it
+    would do nothing), is refused naming the key."""
     base = _water_tank("").replace("dx = 0.05\n", 'dx = 0.05\nscheme = "seed"\n')
-    assert load(base).scene.config.seed_gradient == rj.SeedGradient.SPIKY
+    assert load(base).scene.config.scheme.gradient == rj.sph.SpikyGradient()
     poly6 = load(base.replace('scheme = "seed"\n', 'scheme = "seed"\nseed_gradient = "poly6"\n')).scene
-    assert poly6.config.seed_gradient == rj.SeedGradient.POLY6
+    assert poly6.config.scheme == rj.SeedScheme(gradient=rj.sph.Poly6Gradient())
     with pytest.raises(ValueError, match=r"key `sph.seed_gradient`.*poly6"):
         load(base.replace('scheme = "seed"\n', 'scheme = "seed"\nseed_gradient = "cubic"\n'))
-    with pytest.raises(ValueError, match=r"key `sph.seed_gradient`.*applies to scheme = \"seed\" only"):
+    with pytest.raises(ValueError, match=r"key `sph.seed_gradient`.*does not apply to scheme = \"wcsph\""):
         load(base.replace('scheme = "seed"\n', 'seed_gradient = "poly6"\n'))

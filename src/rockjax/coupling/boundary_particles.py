@@ -20,7 +20,7 @@ import jax.numpy as jnp
 
 from ..sph import seed, wcsph
 from ..sph.neighbours import pairs, take
-from ..types import Config, CouplingState, Kind, NeighbourList, Params, Particles, Scheme
+from ..types import Config, CouplingState, Kind, NeighbourList, Params, Particles
 from ..blocks.rotation import quat_matrix
 from .penalty import coupled_blocks
 
@@ -53,14 +53,18 @@ def load(P: Particles, nbrs: NeighbourList, blocks, params: Params, config: Conf
     nf = config.n_fluid
     pr = pairs(P.x, P.kind, nbrs.idx, config)
     bodies = coupled_blocks(config)
-    if config.scheme == Scheme.SEED:
+    from ..sph.schemes import SeedScheme
+
+    if isinstance(config.scheme, SeedScheme):
         return from_accelerations(P, seed.body_accelerations(pr, P, bodies, params, config), bodies, blocks, params,
                                   config)
     body_j = P.body[pr.idx]
+    extra = wcsph.momentum_extra(P.x, P.v, P.rho, P.vol, P.kind, nbrs, params, config)
     acc = []
     for b in bodies:
         only_b = pr._replace(mask=pr.mask & (body_j == b))
-        acc.append(wcsph.acceleration(only_b, P.v, P.rho, P.p, P.vol, P.kind, params, config)[:nf] - params.gravity)
+        acc.append(wcsph.acceleration(only_b, P.v, P.rho, P.p, P.vol, P.kind, params, config, extra=extra)[:nf]
+                   - params.gravity)
     return from_accelerations(P, jnp.stack(acc, axis=1), bodies, blocks, params, config)
 
 

@@ -150,7 +150,7 @@ def wall_terms(P: Particles, s, v_rel, normals, fmask, params: Params, config: C
     acceleration in the continued pressure.
     """
     nf = config.n_fluid
-    area_fn = plane_integrals(config.kernel)
+    area_fn = plane_integrals(config.scheme.kernel)
     h = params.fluid.h
     dt = s.dtype
     on = fmask[None, :]

@@ -14,16 +14,13 @@ from typing import Any
 import jax.numpy as jnp
 import numpy as np
 
-from ..sph.eos import tait_density
 from ..sph.kernels import SUPPORT_FACTOR
-from ..types import (
-    Config, DensityDiffusion, FluidParams, GridSpec, Kind, KernelKind, NeighbourList, Params, Particles, Scheme,
-    State, Viscosity, WallModel, float_dtype,
-)
+from ..sph.schemes import FluidScheme, from_names
+from ..types import Config, FluidParams, GridSpec, Kind, NeighbourList, Params, Particles, State, float_dtype
 
 __all__ = [
     "Scene", "lattice", "tank_walls", "water_params", "stable_dt", "check_params", "make_state",
-    "fluid_scene", "particle_layout", "GRAVITY", "empty_neighbours",
+    "fluid_scene", "particle_layout", "GRAVITY", "empty_neighbours", "as_scheme",
 ]
 
 GRAVITY = 9.81
@@ -106,20 +103,15 @@ def water_params(*, dx: float, c0: float, h_factor: float = 1.3, alpha: float = 
     return Params(gravity=jnp.asarray([0.0, 0.0, -gravity], dt), fluid=fluid)
 
 
-def stable_dt(params: Params, *, scheme: Scheme, viscosity: Viscosity, cfl: float = 0.25) -> float:
-    """Largest stable time step [s] for these params (host side, from concrete values).
+def stable_dt(params: Params, *, scheme: FluidScheme, cfl: float = 0.25) -> float:
+    """Largest stable time step [s] for these params (host side, from concrete values):
+    ``scheme.stable_dt`` (``min(cfl h / c0, 0.125 h^2 / nu [viscous terms], 0.25 sqrt(h / |g|))``)."""
+    return scheme.stable_dt(params, cfl=cfl)
 
-    ``min(cfl h / c0, 0.125 h^2 / nu [laminar or seed viscosity], 0.25 sqrt(h / |g|))``.
-    """
-    f = params.fluid
-    h, c0, nu = float(f.h), float(f.c0), float(f.nu)
-    g = float(np.linalg.norm(np.asarray(params.gravity)))
-    limits = [cfl * h / c0]
-    if (scheme == Scheme.SEED or viscosity == Viscosity.LAMINAR) and nu > 0:
-        limits.append(0.125 * h * h / nu)
-    if g > 0:
-        limits.append(0.25 * math.sqrt(h / g))
-    return min(limits)
+
+def as_scheme(scheme) -> FluidScheme:
+    """A fluid scheme object from an object or a scheme name (``"wcsph"``, ``"seed"``: its default terms)."""
+    return from_names(scheme) if isinstance(scheme, str) else scheme
 
 
 def check_params(config: Config, params: Params) -> None:
@@ -137,35 +129,14 @@ def check_params(config: Config, params: Params) -> None:
             f"Params.fluid.h = {float(np.max(np.asarray(f.h))):.4g} m gives a kernel support of {support:.4g} m, "
             f"beyond Config.cutoff = {config.cutoff:.4g} m; rebuild the scene with this h (or a larger cutoff)."
         )
-    _warn_undamped(config, params)
-    limit = stable_dt(params, scheme=config.scheme, viscosity=config.viscosity, cfl=2 * config.cfl)
+    config.scheme.check_params(params)
+    limit = stable_dt(params, scheme=config.scheme, cfl=2 * config.cfl)
     if config.dt > limit * (1 + 1e-6):
         raise ValueError(
             f"Config.dt = {config.dt:.4g} s exceeds the stability limit {limit:.4g} s for these Params "
             f"(h = {float(f.h):.4g} m, c0 = {float(f.c0):.4g} m/s, nu = {float(f.nu):.3g} m^2/s); "
             "use a smaller dt (Config.replace(dt=...)) or rebuild the scene."
         )
-
-
-def _warn_undamped(config: Config, params: Params) -> None:
-    """Warn (``RuntimeWarning``) when a WCSPH run has neither artificial viscosity nor density diffusion.
-
-    Measured (``experiments/energy_creep.py``): from a settled dam-break state, alpha = delta = 0
-    gained 0.2 m g 2a of energy in 6 s -- nothing damps the pressure noise and the Adami walls do
-    not conserve energy. Allowed (a user may want to study it), never silent.
-    """
-    import warnings
-
-    if config.scheme != Scheme.WCSPH or config.viscosity != Viscosity.ARTIFICIAL:
-        return
-    f = params.fluid
-    no_visc = not np.any(np.asarray(f.alpha) > 0)
-    no_diff = config.density_diffusion == DensityDiffusion.NONE or not np.any(np.asarray(f.delta) > 0)
-    if no_visc and no_diff:
-        warnings.warn("WCSPH with Params.fluid.alpha = 0 and no density diffusion (delta = 0 or "
-                      "DensityDiffusion.NONE) leaves the pressure noise undamped (measured unstable after a dam-break impact, "
-                      "experiments/energy_creep.py). Set alpha > 0 "
-                      "(e.g. 0.02) or delta > 0 (e.g. 0.1).", RuntimeWarning, stacklevel=3)
 
 
 def make_state(*, config: Config, x: np.ndarray, kind: np.ndarray, vol: np.ndarray, rho: np.ndarray,
@@ -288,12 +259,12 @@ def _capacities(h_factor: float, list_radius_dx: float, run_length: int) -> tupl
 
 
 def particle_layout(*, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domain_lo, domain_hi, periodic,
-                    surface_z: float | None, c0: float, scheme: Scheme, h_factor: float, skin_factor: float) -> dict:
+                    surface_z: float | None, c0: float, scheme: FluidScheme, h_factor: float, skin_factor: float) -> dict:
     """Host arrays and static sizes for water + wall particles at spacing ``dx`` [m].
 
     Returns a dict: ``grid``, ``cutoff`` and ``skin`` [m], ``neighbour_capacity``,
     ``cell_capacity`` and ``wall_pair_capacity``, and the particle arrays ``x`` [N, 3], ``kind``, ``vol`` (dx^3) and ``rho``
-    (hydrostatic below ``surface_z`` for WCSPH, else rho0).
+    (hydrostatic below ``surface_z`` where the scheme integrates its density, ``scheme.initial_density``; else rho0).
     """
     cutoff = SUPPORT_FACTOR * h_factor * dx
     skin = skin_factor * dx
@@ -302,9 +273,10 @@ def particle_layout(*, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domai
     kind = np.concatenate([np.full(len(fluid_x), Kind.FLUID), np.full(len(wall_x), Kind.WALL)]).astype(np.int32)
     vol = np.full(len(x), dx**3)
     rho = np.full(len(x), 1000.0)
-    if surface_z is not None and scheme == Scheme.WCSPH:
+    if surface_z is not None:
         depth = np.clip(surface_z - x[:, 2], 0.0, None)
-        rho = np.asarray(tait_density(1000.0 * GRAVITY * depth, 1000.0, c0, 7.0))
+        still = scheme.initial_density(1000.0 * GRAVITY * depth, rho0=1000.0, c0=c0)
+        rho = rho if still is None else still
     run_length = 1 if (periodic[0] or grid.shape[0] < 3) else 3
     k, cell_cap = _capacities(h_factor, (cutoff + skin) / dx, run_length)
     k_now, cell_now = initial_list_sizes(fluid_x, x, grid, cutoff + skin)
@@ -315,9 +287,7 @@ def particle_layout(*, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domai
 
 
 def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domain_lo, domain_hi,
-                periodic, surface_z: float | None, c0: float, scheme: Scheme, kernel: KernelKind,
-                viscosity: Viscosity, wall_model: WallModel, density_diffusion: DensityDiffusion,
-                h_factor: float, alpha: float, nu: float, delta: float, skin_factor: float,
+                periodic, surface_z: float | None, c0: float, scheme: FluidScheme, h_factor: float, alpha: float, nu: float, delta: float, skin_factor: float,
                 rebuild_every: int, cfl: float, meta: dict, wall_viscosity: float = 1.0) -> Scene:
     """Assemble a fluid-only scene from host point sets (used by the built-in builders)."""
     params = water_params(dx=dx, c0=c0, h_factor=h_factor, alpha=alpha, nu=nu, delta=delta,
@@ -327,11 +297,11 @@ def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray
                         skin_factor=skin_factor)
     grid, cutoff, skin, k, cell_cap, x, kind, vol, rho = (L[n] for n in (
         "grid", "cutoff", "skin", "neighbour_capacity", "cell_capacity", "x", "kind", "vol", "rho"))
-    dt = stable_dt(params, scheme=scheme, viscosity=viscosity, cfl=cfl)
+    dt = stable_dt(params, scheme=scheme, cfl=cfl)
     config = Config(
         n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
         rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap,
-        wall_pair_capacity=L["wall_pair_capacity"], scheme=scheme, kernel=kernel, viscosity=viscosity, wall_model=wall_model, density_diffusion=density_diffusion, cfl=cfl,
+        wall_pair_capacity=L["wall_pair_capacity"], scheme=scheme, cfl=cfl,
     )
     state = make_state(config=config, x=x, kind=kind, vol=vol, rho=rho)
     meta = dict(meta, name=name, dx=dx)

@@ -19,11 +19,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..sph.kernels import SUPPORT_FACTOR
-from ..types import (
-    Config, Coupling, CouplingParams, DensityDiffusion, KernelKind, Scheme, State, Viscosity,
-    WallModel, float_dtype,
-)
-from .base import GRAVITY, Scene, _ceil8, _positive, make_state, particle_layout, stable_dt, water_params
+from ..sph.schemes import WCSPH, FluidScheme
+from ..types import Config, Coupling, CouplingParams, State, float_dtype
+from .base import GRAVITY, Scene, _ceil8, _positive, as_scheme, make_state, particle_layout, stable_dt, water_params
 from .block_sampling import sample_block_particles, submerged_pair_count
 from .shapes import fill, plane, shell
 
@@ -70,7 +68,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
                   coupling: Coupling = Coupling.PENALTY, c0: float | None = None, h_factor: float = 1.3,
                   alpha: float = 0.02, nu: float = 1e-6, delta: float = 0.1, wall_viscosity: float = 1.0,
                   skin_factor: float = 0.6,
-                  rebuild_every: int = 8, cfl: float = 0.25, scheme: Scheme = Scheme.WCSPH,
+                  rebuild_every: int = 8, cfl: float = 0.25, scheme: FluidScheme | str = WCSPH(),
                   velocities=None, joint_water: bool = False, coupling_guard: bool = True, guard_fixed: bool = False,
                   block_kwargs: dict | None = None, meta: dict | None = None) -> Scene:
     """Assemble a scene of water (optional) and blocks from host data.
@@ -123,7 +121,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     if not moving:
         coupling = Coupling.NONE
     coupling = Coupling(coupling)
-    scheme = Scheme(scheme)
+    scheme = as_scheme(scheme)
     if c0 is None:
         raise ValueError(f"{name}: c0 (speed of sound) is required for a scene with water")
     params = water_params(dx=dx, c0=c0, h_factor=h_factor, alpha=alpha, nu=nu, delta=delta,
@@ -166,7 +164,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         pairs_b = sum(submerged_pair_count(polyhedra[b], pts_b, dx, cutoff + skin) for b, pts_b in zip(moving, xb))
         body_pair_capacity = min(_ceil8(1.25 * pairs_b), L["wall_pair_capacity"])
         n_block_particles = len(wall_x) - n_fixed_walls  # the walls' tail (sorted apart at each list build)
-    dt = stable_dt(params, scheme=scheme, viscosity=Viscosity.ARTIFICIAL, cfl=cfl)
+    dt = stable_dt(params, scheme=scheme, cfl=cfl)
     dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
     if dt_blocks < dt and "normal_stiffness" not in (block_kwargs or {}):
         # The rock penalty stiffness only has to keep block overlaps small; soften it so the blocks
@@ -183,8 +181,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     config = Config(n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
                     rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap,
                     wall_pair_capacity=L["wall_pair_capacity"], body_pair_capacity=body_pair_capacity,
-                    n_block_particles=n_block_particles, scheme=scheme, kernel=KernelKind.WENDLAND_C2, viscosity=Viscosity.ARTIFICIAL, wall_model=WallModel.ADAMI,
-                    density_diffusion=DensityDiffusion.FOURTAKAS, cfl=cfl, blocks=bconfig, coupling=coupling,
+                    n_block_particles=n_block_particles, scheme=scheme, cfl=cfl, blocks=bconfig, coupling=coupling,
                     coupling_guard=bool(coupling_guard), guard_fixed=bool(guard_fixed))
     state = make_state(config=config, x=x, kind=kind, vol=vol, rho=rho)
     if coupling == Coupling.BOUNDARY_PARTICLES:

@@ -10,8 +10,8 @@ import math
 
 import numpy as np
 
-from ..types import DensityDiffusion, KernelKind, Scheme, Viscosity, WallModel
-from .base import GRAVITY, Scene, _positive, fluid_scene, lattice, tank_walls
+from ..sph.schemes import WCSPH, FluidScheme, SeedScheme
+from .base import GRAVITY, Scene, _positive, as_scheme, fluid_scene, lattice, tank_walls
 
 __all__ = ["dam_break", "hydrostatic_tank"]
 
@@ -20,22 +20,24 @@ def _wall_layers(h_factor: float) -> int:
     return int(math.ceil(2.0 * h_factor))
 
 
-def _scheme_defaults(scheme: Scheme, alpha, nu):
-    scheme = Scheme(scheme)
+def _scheme_defaults(scheme, alpha, nu):
+    """The scheme object and the viscosity constants a scheme defaults to: alpha 0.02 and
+    nu 1e-6 m^2/s with WCSPH; the seed scheme's Eq 18 is its only dissipation, so 0 and 1e-3."""
+    scheme = as_scheme(scheme)
+    if not isinstance(scheme, FluidScheme):
+        raise ValueError(f"scheme must be a fluid scheme (rockjax.WCSPH(...), rockjax.SeedScheme(...)) or its name; got {scheme!r}")
+    seed = isinstance(scheme, SeedScheme)
     if alpha is None:
-        alpha = 0.02 if scheme == Scheme.WCSPH else 0.0
+        alpha = 0.0 if seed else 0.02
     if nu is None:
-        nu = 1e-6 if scheme == Scheme.WCSPH else 1e-3
+        nu = 1e-3 if seed else 1e-6
     return scheme, alpha, nu
 
 
 def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width: float = 0.5,
               column_height: float = 1.0, tank_length: float = 2.0, tank_width: float = 1.0,
               tank_height: float | None = None, periodic_y: bool = False,
-              scheme: Scheme = Scheme.WCSPH, kernel: KernelKind = KernelKind.WENDLAND_C2,
-              viscosity: Viscosity = Viscosity.ARTIFICIAL, wall_model: WallModel = WallModel.ADAMI,
-              density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS,
-              h_factor: float = 1.3, c0: float | None = None, alpha: float | None = None, nu: float | None = None,
+              scheme: FluidScheme | str = WCSPH(), h_factor: float = 1.3, c0: float | None = None, alpha: float | None = None, nu: float | None = None,
               delta: float = 0.1, wall_viscosity: float = 1.0, skin_factor: float = 0.3, rebuild_every: int = 8,
               cfl: float = 0.25) -> Scene:
     """A water column collapsing in a tank (3D; with ``periodic_y`` a 2D slab).
@@ -48,6 +50,8 @@ def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width:
 
     Args:
         dx: particle spacing [m].
+        scheme: the fluid scheme and its terms (``WCSPH(...)`` default, ``SeedScheme(...)``, or a
+            name: ``"wcsph"``, ``"seed"``).
         c0: speed of sound [m/s]; default 10 sqrt(2 g column_height).
         alpha / nu: artificial viscosity [-] / kinematic viscosity [m^2/s]; defaults depend on
             the scheme (WCSPH 0.02 / 1e-6; seed 0 / 1e-3, as its Eq 18 is its only dissipation).
@@ -85,18 +89,13 @@ def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width:
     meta = dict(column_length=column_length, column_width=column_width, column_height=column_height,
                 tank_length=tank_length, tank_width=tank_width, tank_height=tank_height, periodic_y=periodic_y)
     return fluid_scene(name="dam_break", dx=dx, fluid_x=fluid, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi,
-                       periodic=periodic, surface_z=column_height, c0=c0, scheme=scheme, kernel=KernelKind(kernel),
-                       viscosity=Viscosity(viscosity), wall_model=WallModel(wall_model),
-                       density_diffusion=DensityDiffusion(density_diffusion), h_factor=h_factor, alpha=alpha, nu=nu,
+                       periodic=periodic, surface_z=column_height, c0=c0, scheme=scheme, h_factor=h_factor, alpha=alpha, nu=nu,
                        delta=delta, wall_viscosity=wall_viscosity, skin_factor=skin_factor, rebuild_every=rebuild_every,
                        cfl=cfl, meta=meta)
 
 
 def hydrostatic_tank(*, dx: float = 0.02, length: float = 0.2, width: float = 0.2, depth: float = 0.2,
-                     periodic_xy: bool = False, scheme: Scheme = Scheme.WCSPH,
-                     kernel: KernelKind = KernelKind.WENDLAND_C2, viscosity: Viscosity = Viscosity.ARTIFICIAL,
-                     wall_model: WallModel = WallModel.ADAMI,
-                     density_diffusion: DensityDiffusion = DensityDiffusion.FOURTAKAS, h_factor: float = 1.3,
+                     periodic_xy: bool = False, scheme: FluidScheme | str = WCSPH(), h_factor: float = 1.3,
                      c0: float | None = None, alpha: float | None = None, nu: float | None = None,
                      delta: float = 0.1, wall_viscosity: float = 1.0, skin_factor: float = 0.3, rebuild_every: int = 8,
                      cfl: float = 0.25) -> Scene:
@@ -123,8 +122,6 @@ def hydrostatic_tank(*, dx: float = 0.02, length: float = 0.2, width: float = 0.
     dom_hi = [length if periodic_xy else length + pad, width if periodic_xy else width + pad, 2.0 * depth]
     meta = dict(length=length, width=width, depth=depth, periodic_xy=periodic_xy)
     return fluid_scene(name="hydrostatic_tank", dx=dx, fluid_x=fluid, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi,
-                       periodic=periodic, surface_z=depth, c0=c0, scheme=scheme, kernel=KernelKind(kernel),
-                       viscosity=Viscosity(viscosity), wall_model=WallModel(wall_model),
-                       density_diffusion=DensityDiffusion(density_diffusion), h_factor=h_factor, alpha=alpha, nu=nu,
+                       periodic=periodic, surface_z=depth, c0=c0, scheme=scheme, h_factor=h_factor, alpha=alpha, nu=nu,
                        delta=delta, wall_viscosity=wall_viscosity, skin_factor=skin_factor, rebuild_every=rebuild_every,
                        cfl=cfl, meta=meta)

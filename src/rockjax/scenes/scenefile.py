@@ -125,8 +125,10 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from ..sph import schemes as _schemes
 from ..sph.kernels import SUPPORT_FACTOR
-from ..types import Coupling, DensityDiffusion, KernelKind, Scheme, SeedGradient, Viscosity, WallModel
+from ..sph.terms import names as _term_names
+from ..types import Coupling
 from .base import GRAVITY, Scene, fluid_scene, lattice
 
 try:  # Python >= 3.11
@@ -285,10 +287,6 @@ def _choice(choices, default=None):
     return _Key("choice", default, choices=tuple(choices))
 
 
-def _enum_values(e) -> tuple:
-    return tuple(m.value for m in e)
-
-
 _POS = dict(lo=0.0, lo_open=True)
 _NONNEG = dict(lo=0.0)
 
@@ -322,17 +320,17 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
     "output": {"frame_dt": _num(unit="s", **_POS), "out": _Key("str")},
     "run": {"t_end": _num(unit="s", **_POS)},
     "sph": {"dx": _num(unit="m", **_POS, hint="the particle spacing, e.g. dx = 0.02"),
-            "scheme": _choice(_enum_values(Scheme), "wcsph"), "c0": _num(unit="m/s", **_POS),
+            "scheme": _choice(tuple(_term_names("scheme")), "wcsph"), "c0": _num(unit="m/s", **_POS),
             "h_factor": _num(default=1.3, lo=0.5, hi=3.0), "alpha": _num(**_NONNEG),
             "nu": _num(unit="m^2/s", **_NONNEG), "delta": _num(default=0.1, **_NONNEG),
             "wall_viscosity": _num(default=1.0, **_NONNEG),
             "skin_factor": _num(**_NONNEG), "rebuild_every": _num("int", 8, lo=1),
             "cfl": _num(default=0.25, lo=0.0, lo_open=True, hi=1.0),
-            "kernel": _choice(_enum_values(KernelKind), "wendland_c2"),
-            "viscosity": _choice(_enum_values(Viscosity), "artificial"),
-            "wall_model": _choice(_enum_values(WallModel), "adami"),
-            "density_diffusion": _choice(_enum_values(DensityDiffusion), "fourtakas"),
-            "seed_gradient": _choice(_enum_values(SeedGradient), "spiky")},
+            "kernel": _choice(tuple(_term_names("kernel")), "wendland_c2"),
+            "viscosity": _choice(tuple(_term_names("viscosity")), "artificial"),
+            "wall_model": _choice(tuple(_term_names("walls")), "adami"),
+            "density_diffusion": _choice(tuple(_term_names("diffusion")), "fourtakas"),
+            "seed_gradient": _choice(tuple(_term_names("seed_gradient")), "spiky")},
     "coupling": {"method": _choice(("penalty", "boundary_particles", "boundary_integral"), "penalty"),
                  "stiffness": _num(unit="1/s^2", **_POS), "damping": _num(unit="1/s", **_NONNEG),
                  "interaction_distance": _num(unit="m", **_POS), "guard": _Key("bool", True),
@@ -546,13 +544,23 @@ def _hint_types(hint) -> tuple:
 
 def _builtin_value(ctx: _Ctx, path: tuple, v, hint, default):
     types = _hint_types(hint)
+    if isinstance(default, _schemes.FluidScheme):  # a name, or a table {scheme = "wcsph", diffusion = "antuono"}
+        if isinstance(v, _schemes.FluidScheme):
+            return v
+        table = {"scheme": v} if isinstance(v, str) else v
+        if not isinstance(table, dict):
+            ctx.fail(path, f'expected a scheme name ("wcsph", "seed") or a table of its terms, got {_typename(v)} {v!r}')
+        try:
+            return _schemes.from_names(**table)
+        except (TypeError, ValueError) as exc:
+            ctx.fail(path, f"{exc} (keys: scheme, kernel, viscosity, walls, diffusion, gradient)")
     enum_cls = next((t for t in types if isinstance(t, type) and issubclass(t, enum.Enum)), None)
     if enum_cls is None and isinstance(default, enum.Enum):
         enum_cls = type(default)
     if enum_cls is not None:
         if isinstance(v, enum_cls):
             return v
-        choices = _enum_values(enum_cls)
+        choices = tuple(m.value for m in enum_cls)
         if not isinstance(v, str) or v not in choices:
             ctx.fail(path, f"must be one of {', '.join(repr(c) for c in choices)} (got {v!r})")
         return enum_cls(v)
@@ -915,7 +923,7 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
         drop = max(float(poly.centroid_world[2]) - z_bottom, 0.0)
         speed = max(speed, float(np.linalg.norm(b["velocity"])) + math.sqrt(2 * GRAVITY * drop))
     c0 = sph["c0"] if sph["c0"] is not None else 10.0 * speed
-    scheme, alpha, nu = _scheme_defaults(Scheme(sph["scheme"]), sph["alpha"], sph["nu"])
+    scheme, alpha, nu = _scheme_defaults(_fluid_scheme(ctx, sph), sph["alpha"], sph["nu"])
     dom_lo = np.array([lo[a] if periodic[a] else lo[a] - pad for a in range(3)])
     dom_hi = np.array([hi[a] if periodic[a] else hi[a] + pad for a in range(3)])
     meta.update(still_level=float(still), domain_lo=lo.tolist(), domain_hi=hi.tolist(), c0=float(c0))
@@ -937,19 +945,9 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
                   # the builders' defaults: 0.3 dx for water only, 0.6 dx with moving blocks
                   skin_factor=sph["skin_factor"] if sph["skin_factor"] is not None else (0.6 if moving else 0.3),
                   rebuild_every=sph["rebuild_every"], cfl=sph["cfl"])
-    if scheme != Scheme.SEED and sph["seed_gradient"] != _SCHEMA["sph"]["seed_gradient"].default:
-        ctx.fail(("sph", "seed_gradient"), 'applies to scheme = "seed" only; remove the key or set that scheme')
     if not moving:
-        scene = fluid_scene(name=name, dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,
-                            periodic=tuple(periodic), surface_z=still, c0=c0, scheme=scheme,
-                            kernel=KernelKind(sph["kernel"]), viscosity=Viscosity(sph["viscosity"]),
-                            wall_model=WallModel(sph["wall_model"]),
-                            density_diffusion=DensityDiffusion(sph["density_diffusion"]), meta=meta, **common)
-        return scene.replace(config=scene.config.replace(seed_gradient=SeedGradient(sph["seed_gradient"])))
-    for key in ("kernel", "viscosity", "wall_model", "density_diffusion"):
-        if sph[key] != _SCHEMA["sph"][key].default:
-            ctx.fail(("sph", key), f"scenes with moving blocks use {key} = {_SCHEMA['sph'][key].default!r} "
-                                   "(coupled_scene); remove the key")
+        return fluid_scene(name=name, dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,
+                           periodic=tuple(periodic), surface_z=still, c0=c0, scheme=scheme, meta=meta, **common)
     if walls_only and any(s.polyhedron is None for s, _, _ in fixed):
         warnings.warn(f"{ctx.source}: {', '.join(walls_only)} is not convex: it is walls for the water only, and "
                       "moving blocks will pass through it (split it into convex pieces to make it a block)",
@@ -984,4 +982,22 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
         scene = scene.replace(params=scene.params.replace(coupling=coupling_params(
             dx=dx, c0=c0, stiffness=cpl["stiffness"], damping=cpl["damping"],
             interaction_distance=cpl["interaction_distance"], coupling=Coupling(cpl["method"]))))
-    return scene.replace(config=scene.config.replace(seed_gradient=SeedGradient(sph["seed_gradient"])))
+    return scene
+
+
+#: scene-file keys of ``[sph]`` -> the scheme's term slots (``sph.schemes.from_names``)
+_TERM_KEYS = {"kernel": "kernel", "viscosity": "viscosity", "wall_model": "walls", "density_diffusion": "diffusion",
+              "seed_gradient": "gradient"}
+
+
+def _fluid_scheme(ctx, sph: dict):
+    """The fluid scheme object of an ``[sph]`` table: the scheme by name with the terms whose keys
+    are given (a term that does not apply to the scheme is refused, naming its key)."""
+    terms = {slot: sph[key] for key, slot in _TERM_KEYS.items() if sph[key] != _SCHEMA["sph"][key].default}
+    for key, slot in _TERM_KEYS.items():
+        if slot in terms:
+            try:
+                _schemes.from_names(sph["scheme"], **{slot: terms[slot]})
+            except ValueError:
+                ctx.fail(("sph", key), f'does not apply to scheme = "{sph["scheme"]}"; remove the key or change the scheme')
+    return _schemes.from_names(sph["scheme"], **terms)

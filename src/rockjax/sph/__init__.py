@@ -1,2 +1,20 @@
-"""The fluid: SPH kernels, neighbour search, equations of state, wall particles, and the two
-schemes (``seed``: Mikola & Sitar 2013; ``wcsph``: the accurate default)."""
+"""The fluid: SPH kernels, neighbour search, equations of state, wall particles, and the fluid
+schemes with their terms as static objects (``schemes``: ``WCSPH``, ``SeedScheme``; ``kernels``,
+``viscosity``, ``diffusion``, ``walls``: one class per choice). Re-exported here: the scheme and
+term classes a user composes."""
+
+from .diffusion import Antuono, DensityDiffusion, Fourtakas, FourtakasSurface, Molteni, NoDiffusion
+from .kernels import CubicSpline, Kernel, Poly6Gradient, SeedGradientKernel, SpikyGradient, WendlandC2
+from .schemes import WCSPH, FluidScheme, SeedScheme, from_names
+from .terms import Term, by_name, names
+from .viscosity import Artificial, Laminar, LaminarSPS, Viscosity
+from .walls import Adami, DynamicWalls, WallModel
+
+__all__ = [
+    "FluidScheme", "WCSPH", "SeedScheme", "from_names",
+    "Kernel", "WendlandC2", "CubicSpline", "SeedGradientKernel", "SpikyGradient", "Poly6Gradient",
+    "Viscosity", "Artificial", "Laminar", "LaminarSPS",
+    "DensityDiffusion", "NoDiffusion", "Molteni", "Fourtakas", "FourtakasSurface", "Antuono",
+    "WallModel", "Adami", "DynamicWalls",
+    "Term", "by_name", "names",
+]

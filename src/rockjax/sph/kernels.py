@@ -13,11 +13,12 @@ viscosity kernel whose Laplacian is seed Eq 19. The seed's "h" is the support ra
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import jax.numpy as jnp
 
-from ..types import KernelKind
+from .terms import Term
 
 __all__ = [
     "SUPPORT_FACTOR",
@@ -33,6 +34,12 @@ __all__ = [
     "viscosity_laplacian",
     "kernel_pair",
     "plane_integrals",
+    "Kernel",
+    "WendlandC2",
+    "CubicSpline",
+    "SeedGradientKernel",
+    "SpikyGradient",
+    "Poly6Gradient",
 ]
 
 #: support radius / smoothing length for every kernel here
@@ -116,15 +123,6 @@ def viscosity_laplacian(r, h):
     return 45.0 / math.pi / R**6 * jnp.clip(R - r, 0.0, None)
 
 
-def kernel_pair(kind: KernelKind):
-    """The (w, f) pair of a WCSPH kernel choice."""
-    if kind == KernelKind.WENDLAND_C2:
-        return wendland_c2, wendland_c2_f
-    if kind == KernelKind.CUBIC_SPLINE:
-        return cubic_spline, cubic_spline_f
-    raise ValueError(f"unknown kernel {kind!r}")
-
-
 def _wendland_c2_plane(s, h):
     u = jnp.clip(s / h, 0.0, SUPPORT_FACTOR)
     t = SUPPORT_FACTOR - u
@@ -141,7 +139,64 @@ def _cubic_spline_plane(s, h):
     return area, beyond
 
 
-def plane_integrals(kind: KernelKind):
+class Kernel(Term):
+    """A smoothing kernel of the WCSPH scheme (a static choice; ``h`` comes from ``Params``).
+
+    ``w(r, h)`` [1/m^3] and ``f(r, h) = (dW/dr) / r`` [1/m^5] for distances ``r`` [m] (any shape);
+    ``plane(s, h)`` the closed-form plane integrals ``(A, G)`` that the semi-analytical wall term
+    needs (``plane_integrals``). Support radius ``SUPPORT_FACTOR * h`` for every kernel here.
+    """
+
+    family = "kernel"
+
+    def w(self, r, h):
+        raise NotImplementedError
+
+    def f(self, r, h):
+        raise NotImplementedError
+
+    def plane(self, s, h):
+        raise ValueError(f"no plane integrals for kernel {self.name!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class WendlandC2(Kernel):
+    """Wendland C2 (the default): smooth, positive Fourier transform (no pairing instability)."""
+
+    name = "wendland_c2"
+
+    def w(self, r, h):
+        return wendland_c2(r, h)
+
+    def f(self, r, h):
+        return wendland_c2_f(r, h)
+
+    def plane(self, s, h):
+        return _wendland_c2_plane(s, h)
+
+
+@dataclasses.dataclass(frozen=True)
+class CubicSpline(Kernel):
+    """The M4 cubic spline (Monaghan & Lattanzio 1985)."""
+
+    name = "cubic_spline"
+
+    def w(self, r, h):
+        return cubic_spline(r, h)
+
+    def f(self, r, h):
+        return cubic_spline_f(r, h)
+
+    def plane(self, s, h):
+        return _cubic_spline_plane(s, h)
+
+
+def kernel_pair(kernel: Kernel):
+    """The ``(w, f)`` functions of a kernel object."""
+    return kernel.w, kernel.f
+
+
+def plane_integrals(kernel: Kernel):
     """``(A, G)`` of a plane at distance ``s`` [m] >= 0 from a kernel's centre (clamped to [0, 2h]):
 
     * ``A(s, h) = int_plane W dA`` [1/m], the kernel's marginal across the plane; the gradient of
@@ -152,8 +207,40 @@ def plane_integrals(kind: KernelKind):
 
     Closed forms (integrals of the 3D kernels above over the plane and the half space).
     """
-    if kind == KernelKind.WENDLAND_C2:
-        return _wendland_c2_plane
-    if kind == KernelKind.CUBIC_SPLINE:
-        return _cubic_spline_plane
-    raise ValueError(f"no plane integrals for kernel {kind}")
+    return kernel.plane
+
+
+class SeedGradientKernel(Term):
+    """The kernel whose gradient the seed scheme's pressure force uses (``SeedScheme.gradient``):
+    ``f(r, h)`` [1/m^5] for pairs at a safe, positive ``r``, and ``normalised``: whether the force
+    divides it by the discrete lattice sum, as the density sum is (``seed.lattice_sum``)."""
+
+    family = "seed_gradient"
+    normalised = False
+
+    def f(self, r, h):
+        raise NotImplementedError
+
+
+@dataclasses.dataclass(frozen=True)
+class SpikyGradient(SeedGradientKernel):
+    """The spiky kernel's gradient (seed Eq 15, after Mueller et al. 2003), as the paper. It is not
+    the gradient of the poly6 summation density, so the force is not that of the scheme's elastic
+    energy and the water never comes to rest (RESULTS.md, "seed scheme at rest")."""
+
+    name = "spiky"
+
+    def f(self, r, h):
+        return spiky_f(r, h)
+
+
+@dataclasses.dataclass(frozen=True)
+class Poly6Gradient(SeedGradientKernel):
+    """The poly6 kernel's gradient, the density sum's own kernel normalised alike: the water comes
+    to rest (RESULTS.md, "seed scheme at rest")."""
+
+    name = "poly6"
+    normalised = True
+
+    def f(self, r, h):
+        return poly6_f(r, h)

@@ -7,9 +7,9 @@ function. For the default pair functions most per-pair quantities are the same f
 (distance, kernel factor, ``v_ij . x_ij``, the viscous term, the hydrostatic density difference
 up to sign), so one pass computes them once and gives row r's cotangents from both ends:
 
-* ``momentum``: ``_momentum_pair`` with ``Viscosity.ARTIFICIAL``: the acceleration of i is
+* ``momentum``: ``_momentum_pair`` with ``sph.viscosity.Artificial``: the acceleration of i is
   ``m_j Q_ij F_ij x_ij`` with ``Q = -(p_i + p_j) / (rho_i rho_j) - Pi_ij`` symmetric;
-* ``continuity``: ``_continuity_pair`` with ``DensityDiffusion.FOURTAKAS`` or ``NONE``:
+* ``continuity``: ``_continuity_pair`` with ``sph.diffusion.Fourtakas`` or ``NoDiffusion``:
   ``rho_i V_j v_ij . x_ij F_ij + D V_j psi_ij F_ij`` with ``psi_ji = -psi_ij`` (the diffusion's
   density difference less the odd ``hydrostatic_pair_difference``), ``D = -2 delta h c0``.
 
@@ -36,9 +36,8 @@ from typing import Callable, Optional
 import jax
 import jax.numpy as jnp
 
-from ..types import Config, DensityDiffusion, Params, Viscosity
+from ..types import Config, Params
 from .eos import hydrostatic_power
-from .kernels import kernel_pair
 
 __all__ = ["momentum", "continuity"]
 
@@ -47,7 +46,7 @@ _V = ("v0", "v1", "v2")
 
 def _kernel(r, mask, params: Params, config: Config):
     """``(F, dF/dr, dF/dh)`` of the pairs (zero off ``mask``), elementwise forward mode of the kernel."""
-    _, f_fn = kernel_pair(config.kernel)
+    f_fn = config.scheme.kernel.f
     h = params.fluid.h
     F, dF_dr = jax.jvp(lambda r: f_fn(r, h), (r,), (jnp.ones_like(r),))
     dF_dh = jax.jvp(lambda h: f_fn(r, h), (h,), (jnp.ones_like(h),))[1]
@@ -74,7 +73,9 @@ def _params_ct(params: Params, gravity=None, **fluid):
 
 def momentum(config: Config) -> Optional[Callable]:
     """The pullback of ``wcsph._momentum_pair`` (artificial viscosity; None otherwise)."""
-    if config.viscosity != Viscosity.ARTIFICIAL:
+    from .viscosity import Artificial
+
+    if type(config.scheme.viscosity) is not Artificial:
         return None
 
     def pullback(own, nb, d, r, params: Params, mask, fluid_j, g_r, g_j, g_p):
@@ -127,11 +128,14 @@ def momentum(config: Config) -> Optional[Callable]:
 
 
 def continuity(config: Config) -> Optional[Callable]:
-    """The pullback of ``wcsph._continuity_pair`` (``DensityDiffusion.FOURTAKAS`` or ``NONE``; None otherwise)."""
-    dd = config.density_diffusion
-    if dd not in (DensityDiffusion.FOURTAKAS, DensityDiffusion.NONE):
+    """The pullback of ``wcsph._continuity_pair`` (``Fourtakas`` or ``NoDiffusion``; None otherwise)."""
+    from .diffusion import Fourtakas, NoDiffusion
+
+    dd = type(config.scheme.diffusion)
+    if dd not in (Fourtakas, NoDiffusion):
         return None
-    diffusion = dd == DensityDiffusion.FOURTAKAS
+    diffusion = dd is Fourtakas
+    gamma = config.scheme.gamma
 
     def pullback(own, nb, d, r, params: Params, mask, fluid_j, g_r, g_j, g_p):
         f = params.fluid
@@ -154,7 +158,7 @@ def continuity(config: Config) -> Optional[Callable]:
             g = params.gravity
             g_dx = -(d[0] * g[0] + d[1] * g[1] + d[2] * g[2])
             e = 0.5 * (rho_r + rho_j) / f.rho0 - 1.0
-            P, dP = jax.jvp(lambda e: hydrostatic_power(e, config.gamma), (e,), (jnp.ones_like(e),))
+            P, dP = jax.jvp(lambda e: hydrostatic_power(e, gamma), (e,), (jnp.ones_like(e),))
             Hg = f.rho0 / f.c0**2 * P  # H / g_dx
             psi = (rho_j - rho_r) - Hg * g_dx
             D = -2.0 * f.delta * f.h * f.c0

@@ -1,4 +1,4 @@
-"""The seed paper's scheme (``Scheme.SEED``; Mikola & Sitar 2013, section 6.2).
+"""The seed paper's scheme (``SeedScheme``; Mikola & Sitar 2013, section 6.2).
 
 * density by summation with the poly6 kernel (seed Eq 12, 13);
 * linear equation of state ``p = k (rho - rho0)`` with ``k = c0^2`` (seed Eq 17);
@@ -30,7 +30,7 @@ front RMS error, unshifted; as printed the scheme gives 0.40):
 4. Walls. The paper models walls as rigid blocks that repel fluid particles with the penalty
    force of Eq 22. Here fixed walls are lattice particles (DESIGN "Walls"): they contribute to the
    density sum (so the fluid near a wall has full support), carry the Adami et al. (2012)
-   extrapolated pressure (``WallModel.ADAMI``; clamped at zero, so they only push), and in
+   extrapolated pressure (``sph.walls.Adami``; clamped at zero, so they only push), and in
    addition repel with Eq 22 applied to each fluid-wall particle pair closer than ``dx`` (the
    spacing at which a fluid lattice rests on a wall):
    ``a_i += (K_S (dx - r) - K_D v_n)_+ n`` with ``n`` the unit vector from the wall particle to
@@ -44,7 +44,7 @@ front RMS error, unshifted; as printed the scheme gives 0.40):
    the largest speed the scheme is built for (c0 / 10) is stopped within ~0.1 h. Gradients reach
    them through ``c0`` and ``h``.
 
-An option, not the paper's (``Config.seed_gradient``, ``SeedGradient.POLY6``): the pressure force with
+An option, not the paper's (``SeedScheme(gradient=Poly6Gradient())``): the pressure force with
 the gradient of the poly6 kernel that sums the density (normalised alike) instead of the spiky one.
 With the spiky gradient the force is not the gradient of the scheme's elastic energy (``energies``),
 and the water never comes to rest: the stress suite's collapsed column (a/dx = 4, float32, 11 s;
@@ -72,9 +72,9 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from ..types import Config, Kind, NeighbourList, Params, Particles, SeedGradient, WallModel
+from ..types import Config, Kind, NeighbourList, Params, Particles
 from .eos import linear_density, linear_pressure
-from .kernels import SUPPORT_FACTOR, poly6, poly6_f, spiky_f, viscosity_laplacian
+from .kernels import SUPPORT_FACTOR, poly6, viscosity_laplacian
 from .neighbours import Pairs, pairs, transpose_sum, wrap_positions
 from .walls import adami_pressure
 
@@ -123,7 +123,7 @@ def density(pr: Pairs, rho, vol, kind, params: Params, config: Config):
     rho_f = (self_term[:nf] + jnp.sum(m[pr.idx] * w, axis=1)) / norm
     rho_f = jnp.where(kind[:nf] == Kind.FLUID, rho_f, rho[:nf])
     rho_w = rho[nf:]
-    if config.n_wall and config.wall_model == WallModel.DYNAMIC:
+    if config.n_wall and config.scheme.walls.dynamic:
         use = (kind[:nf, None] == Kind.FLUID) & (kind[pr.idx] == Kind.WALL)
         summed = transpose_sum(jnp.where(use, m[:nf, None] * w, 0.0), pr.idx, config.n_particles)[nf:]
         rho_w = jnp.maximum((self_term[nf:] + summed) / norm, f.rho0)
@@ -137,7 +137,7 @@ def pressure(pr: Pairs, rho, kind, params: Params, config: Config):
     """
     f = params.fluid
     p = jnp.maximum(linear_pressure(rho, f.rho0, f.c0), 0.0)
-    if config.wall_model == WallModel.ADAMI:
+    if not config.scheme.walls.dynamic:
         p = adami_pressure(pr, p, rho, kind, params.gravity, f.h, poly6, config)
         rho = jnp.where(kind == Kind.WALL, linear_density(p, f.rho0, f.c0), rho)
     return p, rho
@@ -165,7 +165,7 @@ def energies(P: Particles, nbrs: NeighbourList, params: Params, config: Config) 
     ``e = int_rho0^rho p / rho^2 = c0^2 (ln(rho/rho0) + rho0/rho - 1)`` for ``rho > rho0`` and 0
     below (the clamped law), ``wall`` = the potential of the Eq 22 springs ``sum m K_S (dx - r)^2 / 2``,
     and ``total``. The inviscid scheme conserves it only approximately: Mueller's symmetrised
-    pressure force is not the gradient of this energy (with ``SeedGradient.POLY6`` it is close to
+    pressure force is not the gradient of this energy (with ``Poly6Gradient`` it is close to
     half the elastic part's, see "Pressure scale" above; with the paper's spiky gradient it is not
     proportional to it); viscosity and the wall damping dissipate.
     """
@@ -205,10 +205,10 @@ def forces(pr: Pairs, v, rho, p, vol, kind, params: Params, config: Config):
     idx, d = pr.idx, pr.d
     pair = pr.mask & (pr.r > 0)
     r = jnp.where(pair, pr.r, SUPPORT_FACTOR * f.h)
-    if config.seed_gradient == SeedGradient.POLY6:  # the density's kernel, normalised as the density
-        F = jnp.where(pair, poly6_f(r, f.h), 0.0) / lattice_sum(f.h, _spacing(vol))
-    else:
-        F = jnp.where(pair, spiky_f(r, f.h), 0.0)
+    gradient = config.scheme.gradient
+    F = jnp.where(pair, gradient.f(r, f.h), 0.0)
+    if gradient.normalised:  # the density's kernel, normalised as the density
+        F = F / lattice_sum(f.h, _spacing(vol))
     m_j = f.rho0 * vol[idx]
     rho_j = rho[idx]
     cp = pressure_coefficient(m_j, p[:nf, None], p[idx], rho[:nf, None], rho_j) * F

@@ -11,15 +11,17 @@ are transposes of the fluid rows (``transpose_sum``), numerator and denominator 
 
 from __future__ import annotations
 
-from typing import NamedTuple
+import dataclasses
+from typing import ClassVar, NamedTuple
 
 import jax
 import jax.numpy as jnp
 
 from ..types import Config, Kind
 from .neighbours import Pairs, min_image, safe_norm, take, transpose_sum
+from .terms import Term
 
-__all__ = ["adami_pressure", "adami_terms", "adami_finish", "WallPairs", "wall_pair_geometry", "adami_sums"]
+__all__ = ["WallModel", "Adami", "DynamicWalls", "adami_pressure", "adami_terms", "adami_finish", "WallPairs", "wall_pair_geometry", "adami_sums"]
 
 
 class WallPairs(NamedTuple):
@@ -99,3 +101,31 @@ def adami_pressure(pr: Pairs, p, rho, kind, gravity, h, w_fn, config: Config, *,
     rows = pr.rows
     terms = adami_terms(pr, rows.of(p), rows.of(rho), kind, gravity, h, w_fn, kind_j=kind_j)
     return adami_finish(transpose_sum(terms, pr.idx, config.n_particles), p, kind)
+
+
+class WallModel(Term):
+    """How fixed wall particles get their pressure and density (a scheme's ``walls``).
+
+    ``dynamic``: the walls evolve their density by the continuity equation like the fluid and take
+    the equation of state's pressure (dynamic boundary particles); otherwise the pressure is
+    extrapolated from the fluid (Adami et al. 2012) and the density follows from it.
+    """
+
+    family = "walls"
+    dynamic: ClassVar[bool] = False
+
+
+@dataclasses.dataclass(frozen=True)
+class Adami(WallModel):
+    """The generalised wall condition of Adami, Hu & Adams (2012) (module docstring; the default)."""
+
+    name = "adami"
+
+
+@dataclasses.dataclass(frozen=True)
+class DynamicWalls(WallModel):
+    """Dynamic boundary particles (Crespo et al. 2007, as in DualSPHysics): the walls' density
+    evolves with the continuity equation, clamped at rho0 from below."""
+
+    name = "dynamic"
+    dynamic = True

@@ -3,7 +3,7 @@
 * continuity equation ``drho_i/dt = rho_i sum_j V_j (v_i - v_j) . grad W_ij`` plus delta-SPH
   density diffusion over fluid pairs (Molteni & Colagrossi 2009; Fourtakas et al. 2019 subtract
   its hydrostatic part so a tank at rest stays at rest -- here taken about each pair's mean
-  density, ``hydrostatic_pair_difference``; Antuono et al. 2010 subtract its linear part, from
+  density, ``sph.diffusion.hydrostatic_pair_difference``; Antuono et al. 2010 subtract its linear part, from
   renormalised density gradients, so any linear density field -- the discrete hydrostatic one
   included -- is left alone);
 * Tait equation of state;
@@ -27,17 +27,15 @@ from typing import NamedTuple, Optional
 import jax
 import jax.numpy as jnp
 
-from ..types import Config, DensityDiffusion, Kind, NeighbourList, Params, Particles, Viscosity, WallModel
+from ..types import Config, Kind, NeighbourList, Params, Particles
 from . import pullbacks
-from .eos import hydrostatic_power, tait_density, tait_pressure
-from .kernels import kernel_pair
+from .eos import tait_density, tait_pressure
 from .neighbours import Pairs, Rows, neighbour_kind, pairs, safe_norm, scan_rows, take, transpose_sum, wrap_positions
 from .pair_sum import gathered, pair_sum, with_pullback
 from .walls import adami_finish, adami_sums, adami_terms, wall_pair_geometry
 
 __all__ = ["PairTerms", "pair_terms", "density_rate", "density_gradient", "acceleration", "pressure", "advance",
-           "prime", "hydrostatic_density_difference",
-           "wall_pair_forces"]
+           "prime", "momentum_extra", "wall_pair_forces"]
 
 
 class PairTerms(NamedTuple):
@@ -55,58 +53,13 @@ class PairTerms(NamedTuple):
 
 def pair_terms(pr: Pairs, kind, params: Params, config: Config) -> PairTerms:
     """``PairTerms`` for pairs ``pr`` and particle kinds [N]."""
-    _, f_fn = kernel_pair(config.kernel)
-    F = jnp.where(pr.mask, f_fn(pr.r, params.fluid.h), 0.0)
+    F = jnp.where(pr.mask, config.scheme.kernel.f(pr.r, params.fluid.h), 0.0)
     return PairTerms(pr=pr, F=F, kind_j=neighbour_kind(pr.idx, config))
 
 
-def hydrostatic_density_difference(g_dx, params: Params, config: Config):
-    """Fourtakas et al. (2019) hydrostatic density difference ``rho0 ((1 + rho0 g_dx / B)^(1/gamma) - 1)``
-    (``DensityDiffusion.FOURTAKAS_SURFACE``): the Tait density at a height difference from the surface.
-
-    ``g_dx`` [m^2/s^2] is ``g . (x_j - x_i)``. Evaluated as the 4th-order Taylor series in
-    ``a = rho0 g_dx / B`` (no transcendental per pair: the exact ``expm1(log1p(a)/gamma)`` cost ~40 %
-    of the continuity sum). The truncation error relative to the leading term is below
-    ``0.15 a^4``; with c0 >= 10 v_max and neighbours within 2h, |a| < 0.01 in every built-in scene
-    (error < 2e-9, under float32 rounding); |a| = 0.1 would still give < 2e-5.
-    Not odd in ``g_dx`` (an even part ``(1 - gamma) a / 2`` of the leading term): the pair (j, i)
-    does not get minus the pair (i, j)'s value, see ``hydrostatic_pair_difference``.
-    """
-    f = params.fluid
-    B = f.rho0 * f.c0**2 / config.gamma
-    a = f.rho0 * g_dx / B
-    s = 1.0 / config.gamma
-    c1, c2 = s, s * (s - 1.0) / 2.0
-    c3 = c2 * (s - 2.0) / 3.0
-    c4 = c3 * (s - 3.0) / 4.0
-    return f.rho0 * a * (c1 + a * (c2 + a * (c3 + a * c4)))
-
-
-def hydrostatic_pair_difference(g_dx, rho_i, rho_j, params: Params, config: Config):
-    """Hydrostatic density difference of a pair about its mean density (``DensityDiffusion.FOURTAKAS``):
-    ``g_dx rho_m / c(rho_m)^2 = rho0 (g_dx / c0^2) (rho_m / rho0)^(2 - gamma)``, ``rho_m = (rho_i + rho_j) / 2``.
-
-    ``g_dx`` [m^2/s^2] is ``g . (x_j - x_i)``; ``rho_i``, ``rho_j`` kg/m^3 (any shapes that broadcast).
-    The hydrostatic pressure difference over the pair, ``rho_m g_dx``, turned into a density
-    difference with the Tait sound speed at the pair's own density: a central difference, so it is
-    exact to third order in the height difference at any depth, and odd in the pair (the pair
-    (j, i) gets exactly minus the pair (i, j)'s value), so the diffusion term, like Molteni's, moves
-    density between the two particles and creates none. Fourtakas et al.'s own form
-    (``hydrostatic_density_difference``, from the surface's density) has an even part that is not
-    antisymmetric: in ``tests/stress``'s tank at rest (a/dx = 4, 2026-11-26) it made the fluid-pair
-    diffusion a net density source of 42 % of its summed magnitude, and the column kept rising
-    (``experiments/energy_creep.py``). Its odd part alone is odd too, and did as well in that tank,
-    but its slope is the surface's, off by ~(gamma - 2) g depth / c0^2 of the difference at depth
-    (``tests/unit/test_density_diffusion.py``). The power is a 3-term series in ``e = rho_m / rho0 - 1``
-    (|e| < 0.01 with c0 >= 10 v_max: relative error 35 |e|^3 < 4e-5).
-    """
-    f = params.fluid
-    e = 0.5 * (rho_i + rho_j) / f.rho0 - 1.0
-    return f.rho0 * g_dx / f.c0**2 * hydrostatic_power(e, config.gamma)
-
-
 def _antuono(config: Config) -> bool:
-    return config.density_diffusion == DensityDiffusion.ANTUONO
+    """Whether the scheme's diffusion reads the renormalised density gradient (``sph.diffusion.Antuono``)."""
+    return config.scheme.diffusion.renormalised_gradient
 
 
 def _terms(pr: Pairs, kind, params, config, terms: Optional[PairTerms]) -> PairTerms:
@@ -179,23 +132,23 @@ def _density_gradient_rows(pr: Pairs, t: PairTerms, rho, vol, params: Params):
 def density_gradient(pr: Pairs, rho, vol, kind, params: Params, config: Config, *,
                      terms: Optional[PairTerms] = None):
     """Renormalised density gradient [N, 3] kg/m^4 of the fluid rows (zero on walls): see
-    ``_density_gradient_rows``. Used by ``DensityDiffusion.ANTUONO``."""
+    ``_density_gradient_rows``. Used by ``sph.diffusion.Antuono``."""
     t = _terms(pr, kind, params, config, terms)
     g = _density_gradient_rows(pr, t, rho, vol, params)
     return jnp.concatenate([g, jnp.zeros((config.n_wall, 3), g.dtype)])
 
 
 def pressure(pr: Pairs, rho, kind, params: Params, config: Config, *, terms: Optional[PairTerms] = None):
-    """Pressures [N] Pa (Tait for fluid; walls per ``config.wall_model``) and densities [N].
+    """Pressures [N] Pa (Tait for fluid; walls per ``config.scheme.walls``) and densities [N].
 
     Wall densities are replaced by the density the EOS gives for the wall pressure (Adami) or
     clamped at rho0 (dynamic boundary particles, as DualSPHysics does).
     """
     f = params.fluid
-    p = tait_pressure(rho, f.rho0, f.c0, config.gamma)
+    p = tait_pressure(rho, f.rho0, f.c0, config.scheme.gamma)
     sums = None
-    if config.wall_model == WallModel.ADAMI and config.n_wall:
-        w_fn, _ = kernel_pair(config.kernel)
+    if not config.scheme.walls.dynamic and config.n_wall:
+        w_fn = config.scheme.kernel.w
         kind_j = None if terms is None else terms.kind_j
         rows = pr.rows
         sums = transpose_sum(adami_terms(pr, rows.of(p), rows.of(rho), kind, params.gravity, f.h, w_fn,
@@ -207,13 +160,14 @@ def _wall_pressure(p, rho, kind, adami_sums, params: Params, config: Config):
     """Replace the walls' pressure and density (``pressure``), given the summed ``adami_terms``."""
     f = params.fluid
     wall = kind == Kind.WALL
-    if config.wall_model == WallModel.ADAMI:
+    gamma = config.scheme.gamma
+    if not config.scheme.walls.dynamic:
         if adami_sums is None:
             return p, rho
         p = adami_finish(adami_sums, p, kind)
-        return p, jnp.where(wall, tait_density(p, f.rho0, f.c0, config.gamma), rho)
+        return p, jnp.where(wall, tait_density(p, f.rho0, f.c0, gamma), rho)
     rho = jnp.where(wall, jnp.maximum(rho, f.rho0), rho)
-    return jnp.where(wall, tait_pressure(rho, f.rho0, f.c0, config.gamma), p), rho
+    return jnp.where(wall, tait_pressure(rho, f.rho0, f.c0, gamma), p), rho
 
 
 def _diffusion_pairs(kind_j, rho_j, params: Params, config: Config):
@@ -236,9 +190,8 @@ _G = ("g0", "g1", "g2")
 
 def _kernel_factor(d, mask, params: Params, config: Config):
     """``(r2 [m^2], F [1/m^5])`` of pairs with separations ``d`` (three arrays): ``F = (dW/dr)/r``, zero off ``mask``."""
-    _, f_fn = kernel_pair(config.kernel)
     r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
-    return r2, jnp.where(mask, f_fn(safe_norm(r2), params.fluid.h), 0.0)
+    return r2, jnp.where(mask, config.scheme.kernel.f(safe_norm(r2), params.fluid.h), 0.0)
 
 
 @with_pullback(pullbacks.continuity)
@@ -247,7 +200,7 @@ def _continuity_pair(ri, cj, d, params: Params, mask, fluid_j, config: Config):
     density diffusion (a ``sph.pair_sum`` pair function).
 
     ``ri``: the rows' ``rho`` and velocity components ``v0``-``v2`` (``g0``-``g2``, the
-    renormalised density gradient, with ``DensityDiffusion.ANTUONO``); ``cj``: the same of the
+    renormalised density gradient, with ``sph.diffusion.Antuono``); ``cj``: the same of the
     neighbours plus ``vol``; ``d``: ``x_i - x_j``; ``mask``: real pairs; ``fluid_j``: fluid neighbours.
     """
     f = params.fluid
@@ -256,19 +209,9 @@ def _continuity_pair(ri, cj, d, params: Params, mask, fluid_j, config: Config):
     V_j = f.rho0 * cj["vol"] / rho_j  # neighbour volumes m^3
     vr = sum((ri[_V[a]] - cj[_V[a]]) * d[a] for a in range(3))
     drho = rho_i * V_j * vr * F
-    dd = config.density_diffusion
-    if dd != DensityDiffusion.NONE:
-        diff = rho_j - rho_i
-        if dd in (DensityDiffusion.FOURTAKAS, DensityDiffusion.FOURTAKAS_SURFACE):
-            g = params.gravity
-            g_dx = -(d[0] * g[0] + d[1] * g[1] + d[2] * g[2])
-            if dd == DensityDiffusion.FOURTAKAS:
-                diff = diff - hydrostatic_pair_difference(g_dx, rho_i, rho_j, params, config)
-            else:
-                diff = diff - hydrostatic_density_difference(g_dx, params, config)
-        elif dd == DensityDiffusion.ANTUONO:
-            # minus the linear part: (rho_j - rho_i) - (g_i + g_j) / 2 . x_ji, with x_ji = -d
-            diff = diff + 0.5 * sum((ri[_G[a]] + cj[_G[a]]) * d[a] for a in range(3))
+    dd = config.scheme.diffusion
+    if dd.active:
+        diff = dd.difference(ri, cj, d, rho_i, rho_j, params, config.scheme.gamma)
         kind_j = jnp.where(fluid_j, jnp.int32(Kind.FLUID), jnp.int32(Kind.WALL))
         use = _diffusion_pairs(kind_j, rho_j, params, config)
         drho = drho + jnp.where(use, (-2.0 * f.delta * f.h * f.c0) * V_j * diff * F, 0.0)
@@ -278,7 +221,7 @@ def _continuity_pair(ri, cj, d, params: Params, mask, fluid_j, config: Config):
 def _continuity_values(v, rho, vol, grad_rho, config: Config):
     """``(row values, column values)`` of ``_continuity_pair``: dicts of [N] arrays."""
     rows = {"rho": rho, **{_V[a]: v[:, a] for a in range(3)}}
-    if config.density_diffusion == DensityDiffusion.ANTUONO:
+    if _antuono(config):
         rows.update({_G[a]: grad_rho[:, a] for a in range(3)})
     return rows, dict(rows, vol=vol)
 
@@ -288,7 +231,7 @@ def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params,
     """Continuity sums of a block of rows: ``(drho/dt [R], wall terms [R, K] or None)``.
 
     ``grad_rho`` [N, 3]: the renormalised density gradients (``density_gradient``), needed by
-    ``DensityDiffusion.ANTUONO`` only.
+    ``sph.diffusion.Antuono`` only.
 
     The wall terms ``V_i (v_ij . x_ij) F_ij`` on fluid-to-wall pairs (dynamic walls only, and
     only if ``wall_terms``), summed onto the walls by ``transpose_sum`` and multiplied by the wall
@@ -300,7 +243,7 @@ def _continuity_rows(pr: Pairs, t: PairTerms, v, rho, vol, kind, params: Params,
     (drho,) = _continuity_pair(ri, cj, pr.d, params, pr.mask, t.kind_j == Kind.FLUID, config)
     fluid = rows.of(kind) == Kind.FLUID
     wall_out = None
-    if wall_terms and config.n_wall and config.wall_model == WallModel.DYNAMIC:
+    if wall_terms and config.n_wall and config.scheme.walls.dynamic:
         # wall j: rho_j sum_i V_i (v_j - v_i) . grad_j W_ji = rho_j sum_i V_i (v_ij . x_ij) F_ij
         vr = sum((ri[_V[a]] - cj[_V[a]]) * pr.d[a] for a in range(3))
         V_i = f.rho0 * rows.of(vol) / rows.of(rho)
@@ -322,23 +265,17 @@ def density_rate(pr: Pairs, v, rho, vol, kind, params: Params, config: Config, *
     return jnp.concatenate([drho_f, drho_w])
 
 
-def _pair_force_factors(m_j, rho_i, rho_j, p_i, p_j, vij, d, r2, F, fluid_j, params: Params, config: Config):
-    """Per-pair momentum factors ``(cf, lam)``: the acceleration of i due to j is
-    ``cf d + lam v_ij`` (``lam`` None with artificial viscosity). Arrays of any one shape (the
-    [R, K] rows of a pass, or the flat [M] wall-pair list); ``vij``, ``d``: three such arrays
-    (``v_i - v_j``, ``x_i - x_j``); ``fluid_j``: True where j is fluid (else the viscous factor is
-    ``wall_viscosity``: walls and blocks)."""
-    f = params.fluid
-    h = f.h
+def _pair_force_factors(m_j, rho_i, rho_j, p_i, p_j, vij, d, r2, F, fluid_j, params: Params, config: Config,
+                        ri=None, cj=None):
+    """Per-pair momentum factors ``(cf, lam, e)``: the acceleration of i due to j is
+    ``cf d + lam v_ij + e`` (``lam``, ``e`` None where the viscous term has no such part;
+    ``sph.viscosity``). Arrays of any one shape (the [R, K] rows of a pass, or the flat [M]
+    wall-pair list); ``vij``, ``d``: three such arrays (``v_i - v_j``, ``x_i - x_j``); ``fluid_j``:
+    True where j is fluid (else the viscous factor is ``wall_viscosity``: walls and blocks);
+    ``ri``, ``cj``: the pair's value dicts, for a viscous term's own fields (``momentum_extra``)."""
     coef = -m_j * (p_i + p_j) / (rho_i * rho_j)
-    eta2 = 0.01 * h * h
-    visc = jnp.where(fluid_j, 1.0, f.wall_viscosity)
-    if config.viscosity == Viscosity.ARTIFICIAL:
-        vr = vij[0] * d[0] + vij[1] * d[1] + vij[2] * d[2]
-        mu = h * vr / (r2 + eta2)
-        pi_ij = jnp.where(vr < 0, (-2.0 * f.alpha * f.c0) * visc * mu / (rho_i + rho_j), 0.0)
-        return (coef - m_j * pi_ij) * F, None
-    return coef * F, m_j * 4.0 * f.nu * visc * (F * r2) / ((rho_i + rho_j) * (r2 + eta2))
+    q, lam, e = config.scheme.viscosity.pair(m_j, rho_i, rho_j, vij, d, r2, F, fluid_j, params, ri, cj)
+    return (coef * F if q is None else (coef - q) * F), lam, e
 
 
 @with_pullback(pullbacks.momentum)
@@ -349,11 +286,18 @@ def _momentum_pair(ri, cj, d, params: Params, mask, fluid_j, config: Config):
     r2, F = _kernel_factor(d, mask, params, config)
     m_j = params.fluid.rho0 * cj["vol"]
     vij = tuple(ri[_V[a]] - cj[_V[a]] for a in range(3))
-    cf, lam = _pair_force_factors(m_j, ri["rho"], cj["rho"], ri["p"], cj["p"], vij, d, r2, F, fluid_j, params,
-                                  config)
+    cf, lam, e = _pair_force_factors(m_j, ri["rho"], cj["rho"], ri["p"], cj["p"], vij, d, r2, F, fluid_j, params,
+                                     config, ri, cj)
+    return _combine(cf, lam, e, d, vij)
+
+
+def _combine(cf, lam, e, d, vij):
+    """The three components ``cf d + lam v_ij + e`` of a pair's acceleration (``_pair_force_factors``)."""
     if lam is None:
-        return tuple(cf * d[a] for a in range(3))
-    return tuple(cf * d[a] + lam * vij[a] for a in range(3))
+        out = tuple(cf * d[a] for a in range(3))
+    else:
+        out = tuple(cf * d[a] + lam * vij[a] for a in range(3))
+    return out if e is None else tuple(out[a] + e[a] for a in range(3))
 
 
 def _momentum_gradient_pair(ri, cj, d, params: Params, mask, fluid_j, config: Config):
@@ -365,10 +309,17 @@ def _momentum_gradient_pair(ri, cj, d, params: Params, mask, fluid_j, config: Co
             + _renormalised_terms(d, w, cj["rho"] - ri["rho"]))
 
 
-def _momentum_values(v, rho, p, vol):
-    """``(row values, column values)`` of ``_momentum_pair``: dicts of [N] arrays."""
-    rows = {"rho": rho, "p": p, **{_V[a]: v[:, a] for a in range(3)}}
+def _momentum_values(v, rho, p, vol, extra=None):
+    """``(row values, column values)`` of ``_momentum_pair``: dicts of [N] arrays (with the
+    viscous term's own fields ``extra``, ``momentum_extra``)."""
+    rows = {"rho": rho, "p": p, **{_V[a]: v[:, a] for a in range(3)}, **(extra or {})}
     return rows, dict(rows, vol=vol)
+
+
+def momentum_extra(x, v, rho, vol, kind, nbrs, params: Params, config: Config) -> dict:
+    """The viscous term's own per-particle fields for a momentum pass at these positions, velocities
+    and densities (``sph.viscosity.Viscosity.values``; empty for most terms)."""
+    return config.scheme.viscosity.values(x, v, rho, vol, kind, nbrs, params, config)
 
 
 def _momentum_finish(sums, fluid, params: Params, gradient: bool):
@@ -379,19 +330,19 @@ def _momentum_finish(sums, fluid, params: Params, gradient: bool):
 
 
 def _acceleration_rows(pr: Pairs, t: PairTerms, v, rho, p, vol, kind, params: Params, config: Config, *,
-                       gradient: bool = False):
+                       gradient: bool = False, extra=None):
     """Momentum sums of a block of rows: acceleration [R, 3] m/s^2 (gravity included; zero off the fluid).
 
     With ``gradient`` also returns the rows' renormalised density gradient [R, 3] last
     (``_density_gradient_rows``, from the pass's own gathers).
     """
-    ri, cj = gathered(pr, *_momentum_values(v, rho, p, vol), config)
+    ri, cj = gathered(pr, *_momentum_values(v, rho, p, vol, extra), config)
     fn = _momentum_gradient_pair if gradient else _momentum_pair
     out = fn(ri, cj, pr.d, params, pr.mask, t.kind_j == Kind.FLUID, config)
     return _momentum_finish(tuple(jnp.sum(o, axis=1) for o in out), pr.rows.of(kind) == Kind.FLUID, params, gradient)
 
 
-def wall_pair_forces(wp, on, v, rho, p, vol, params: Params, config: Config):
+def wall_pair_forces(wp, on, v, rho, p, vol, params: Params, config: Config, extra=None):
     """Force on the fluid particle ``wp.row`` from the wall particle ``wp.col`` of each flat wall
     pair (``sph.walls.WallPairs``), zero where not ``on`` [M]: three [M] components N,
     ``m_i (cf d + lam v_ij)``, the very pair term the momentum pass sums (``_pair_force_factors``).
@@ -400,26 +351,30 @@ def wall_pair_forces(wp, on, v, rho, p, vol, params: Params, config: Config):
     slot of the rows. The per-pair factors are materialised once (``optimization_barrier``):
     fused into each of the six sums of the loads they were recomputed, 2x slower."""
     f = params.fluid
-    _, f_fn = kernel_pair(config.kernel)
     i, j = wp.row, wp.col
     r2 = wp.d[0] * wp.d[0] + wp.d[1] * wp.d[1] + wp.d[2] * wp.d[2]
-    F = jnp.where(on, f_fn(wp.r, f.h), 0.0)
+    F = jnp.where(on, config.scheme.kernel.f(wp.r, f.h), 0.0)
     vij = tuple(take(v[:, a], i) - take(v[:, a], j) for a in range(3))
-    cf, lam = _pair_force_factors(f.rho0 * take(vol, j), take(rho, i), take(rho, j), take(p, i), take(p, j), vij,
-                                  wp.d, r2, F, False, params, config)
+    extra = extra or {}
+    ri, cj = {k: take(a, i) for k, a in extra.items()}, {k: take(a, j) for k, a in extra.items()}
+    cf, lam, e = _pair_force_factors(f.rho0 * take(vol, j), take(rho, i), take(rho, j), take(p, i), take(p, j), vij,
+                                     wp.d, r2, F, False, params, config, ri, cj)
     m_i = jnp.where(on, f.rho0 * take(vol, i), 0.0)
+    if e is not None:
+        e = tuple(m_i * c for c in e)
     if lam is None:
         cf = jax.lax.optimization_barrier(m_i * cf)
-        return tuple(cf * wp.d[a] for a in range(3))
+        return _combine(cf, None, e, wp.d, vij)
     cf, lam = jax.lax.optimization_barrier((m_i * cf, m_i * lam))
-    return tuple(cf * wp.d[a] + lam * vij[a] for a in range(3))
+    return _combine(cf, lam, e, wp.d, vij)
 
 
 def acceleration(pr: Pairs, v, rho, p, vol, kind, params: Params, config: Config, *,
-                 terms: Optional[PairTerms] = None):
-    """Pressure gradient + viscosity + gravity: acceleration [N, 3] m/s^2 (zero off the fluid)."""
+                 terms: Optional[PairTerms] = None, extra=None):
+    """Pressure gradient + viscosity + gravity: acceleration [N, 3] m/s^2 (zero off the fluid).
+    ``extra``: the viscous term's own fields (``momentum_extra``), where it has any."""
     t = _terms(pr, kind, params, config, terms)
-    acc_f = _acceleration_rows(pr, t, v, rho, p, vol, kind, params, config)
+    acc_f = _acceleration_rows(pr, t, v, rho, p, vol, kind, params, config, extra=extra)
     return jnp.concatenate([acc_f, jnp.zeros((config.n_wall, 3), acc_f.dtype)])
 
 
@@ -429,7 +384,8 @@ def prime(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -> 
     t = pair_terms(pr, P.kind, params, config)
     p, rho = pressure(pr, P.rho, P.kind, params, config, terms=t)
     drho_dt = density_rate(pr, P.v, rho, P.vol, P.kind, params, config, terms=t)
-    a = acceleration(pr, P.v, rho, p, P.vol, P.kind, params, config, terms=t)
+    extra = momentum_extra(P.x, P.v, rho, P.vol, P.kind, nbrs, params, config)
+    a = acceleration(pr, P.v, rho, p, P.vol, P.kind, params, config, terms=t, extra=extra)
     P = P.replace(a=a, drho_dt=drho_dt, p=p, rho=rho)
     if _antuono(config):
         P = P.replace(grad_rho=density_gradient(pr, rho, P.vol, P.kind, params, config, terms=t))
@@ -453,7 +409,7 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     same mid-step velocities, so the pressure is never half a step behind the positions (a lag
     that was measured to make the scheme unstable at Courant 0.25).
 
-    ``DensityDiffusion.ANTUONO`` uses ``P.grad_rho``, the renormalised density gradients that the
+    ``sph.diffusion.Antuono`` uses ``P.grad_rho``, the renormalised density gradients that the
     previous step's momentum pass computed at (x, rho) -- one drift behind the continuity pass, an
     O(dt) lag in an O(h^2) term -- and the momentum pass computes the next ones from its own
     gathers (no extra pass; an unprimed state without them gets an extra gradient pass).
@@ -470,12 +426,14 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     nf, nw, n = config.n_fluid, config.n_wall, config.n_particles
     kind = P.kind
     fluid = kind == Kind.FLUID
-    evolving = fluid | ((kind == Kind.WALL) & (config.wall_model == WallModel.DYNAMIC))
+    dynamic_walls = config.scheme.walls.dynamic
+    evolving = fluid | ((kind == Kind.WALL) & dynamic_walls)
     v_half = jnp.where(fluid[:, None], P.v + 0.5 * dt * P.a, P.v)
     x_new = wrap_positions(jnp.where(fluid[:, None], P.x + dt * v_half, P.x), config.grid)
-    adami = nw > 0 and config.wall_model == WallModel.ADAMI
-    dynamic = nw > 0 and config.wall_model == WallModel.DYNAMIC
-    w_fn, _ = kernel_pair(config.kernel)
+    adami = nw > 0 and not dynamic_walls
+    dynamic = nw > 0 and dynamic_walls
+    w_fn = config.scheme.kernel.w
+    gamma = config.scheme.gamma
 
     grad_rho = P.grad_rho
     if _antuono(config) and grad_rho is None:  # not primed by ``prime``: an extra pass
@@ -491,14 +449,14 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
                          nbrs, kind, config)
     drho_f = jnp.where(fluid_rows, drho_f, 0.0)
     rho_f = jnp.where(evolving[:nf], P.rho[:nf] + dt * drho_f, P.rho[:nf])
-    p_f = tait_pressure(rho_f, f.rho0, f.c0, config.gamma)
+    p_f = tait_pressure(rho_f, f.rho0, f.c0, gamma)
     rho_w = P.rho[nf:]
     drho_w = jnp.zeros((nw,), P.rho.dtype)
     if nw:
         wp = wall_pair_geometry(x_new, nbrs, config.grid)
     if dynamic:
         # wall j: rho_j sum_i V_i (v_j - v_i) . grad_j W_ji = rho_j sum_i V_i (v_ij . x_ij) F_ij
-        _, f_fn = kernel_pair(config.kernel)
+        f_fn = config.scheme.kernel.f
         V_i = f.rho0 * take(P.vol, wp.row) / take(P.rho, wp.row)
         vr = sum((take(v_half[:, a], wp.row) - take(v_half[:, a], wp.col)) * wp.d[a] for a in range(3))
         F = jnp.where(wp.valid, f_fn(wp.r, f.h), 0.0)
@@ -506,14 +464,15 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
         rho_w = jnp.where(evolving[nf:], rho_w + dt * drho_w, rho_w)
     drho_dt = jnp.concatenate([drho_f, drho_w])
     rho_new = jnp.concatenate([rho_f, rho_w])
-    p = jnp.concatenate([p_f, tait_pressure(rho_w, f.rho0, f.c0, config.gamma)])
+    p = jnp.concatenate([p_f, tait_pressure(rho_w, f.rho0, f.c0, gamma)])
     sums = adami_sums(wp, p_f, rho_f, params.gravity, f.h, w_fn, n) if adami else None
     p, rho_new = _wall_pressure(p, rho_new, kind, sums, params, config)
 
     antuono = _antuono(config)
 
+    extra = momentum_extra(x_new, v_half, rho_new, P.vol, kind, nbrs, params, config)
     m_sums = pair_sum(_momentum_gradient_pair if antuono else _momentum_pair, x_new,
-                      *_momentum_values(v_half, rho_new, p, P.vol), params, nbrs, kind, config)
+                      *_momentum_values(v_half, rho_new, p, P.vol, extra), params, nbrs, kind, config)
     out = _momentum_finish(m_sums, fluid_rows, params, antuono)
     out = out if isinstance(out, tuple) else (out,)
     a_f = out[0]
@@ -527,4 +486,4 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     bp = wall_pair_geometry(x_new, nbrs, config.grid, bodies=True) if config.has_body_pairs else wp
     body_j = take(P.body, bp.col)
     on = bp.valid & (take(kind, bp.row) == Kind.FLUID) & jnp.isin(body_j, jnp.asarray(bodies, body_j.dtype))
-    return P, (bp.row, bp.col, wall_pair_forces(bp, on, v_half, rho_new, p, P.vol, params, config))
+    return P, (bp.row, bp.col, wall_pair_forces(bp, on, v_half, rho_new, p, P.vol, params, config, extra))

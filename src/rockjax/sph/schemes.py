@@ -1,0 +1,233 @@
+"""Fluid schemes as static objects composed of their terms (``Config.scheme``).
+
+``WCSPH(kernel=WendlandC2(), viscosity=Artificial(), walls=Adami(), diffusion=Fourtakas())`` is
+the default, accurate scheme; ``SeedScheme(gradient=SpikyGradient(), walls=Adami())`` the seed
+paper's. A scheme is a frozen dataclass (hashable, part of the static ``Config``; changing it
+recompiles); it chooses the maths, ``Params.fluid`` holds the numbers. Each scheme owns what a
+step needs of it: ``prime`` and ``advance`` (``sph.wcsph`` / ``sph.seed``), its time-step limits
+(``stable_dt`` on the host, ``unstable_dt`` in jit), the checks of params it cannot run safely,
+the initial densities of a still water column and its elastic energy. Terms are checked when the
+scheme is built: a wrong type, or a combination that cannot work, is a ``ValueError`` there.
+
+Where to add things: a viscosity in ``sph.viscosity``, a density diffusion in ``sph.diffusion``,
+a kernel in ``sph.kernels``, a wall model in ``sph.walls``, a scheme here (one class each).
+Scene files and the command line find them by name (``from_names``; ``sph.terms``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import ClassVar
+
+import jax.numpy as jnp
+import numpy as np
+
+from .diffusion import DensityDiffusion, Fourtakas, NoDiffusion
+from .kernels import Kernel, Poly6Gradient, SeedGradientKernel, SpikyGradient, WendlandC2
+from .terms import Term, by_name, names
+from .viscosity import Artificial, Viscosity
+from .walls import Adami, WallModel
+
+__all__ = ["FluidScheme", "WCSPH", "SeedScheme", "from_names"]
+
+
+def _check_type(owner: str, field: str, value, cls):
+    if not isinstance(value, cls):
+        raise ValueError(f"{owner}: {field} must be a {cls.__name__} object, one of "
+                         f"{', '.join(names(cls.family))} (e.g. {owner}({field}=...)); got {value!r}")
+
+
+class FluidScheme(Term):
+    """Base of the fluid schemes (see the module docstring for what a scheme owns).
+
+    ``kernel``: the kernel of the scheme's sums (and of interpolations, ``observables``);
+    ``continuity``: the density follows the continuity equation (so the semi-analytical wall term
+    ``Coupling.BOUNDARY_INTEGRAL``, written for it, applies); ``uses_nu``: the viscous time-step
+    limit applies.
+    """
+
+    family = "scheme"
+    continuity: ClassVar[bool] = False
+
+    @property
+    def uses_nu(self) -> bool:
+        return False
+
+    # ---- host side --------------------------------------------------------------------------
+    def stable_dt(self, params, *, cfl: float) -> float:
+        """Largest stable time step [s] for these params (concrete values):
+        ``min(cfl h / c0, 0.125 h^2 / nu [if uses_nu], 0.25 sqrt(h / |g|))``."""
+        f = params.fluid
+        h, c0, nu = float(f.h), float(f.c0), float(f.nu)
+        g = float(np.linalg.norm(np.asarray(params.gravity)))
+        limits = [cfl * h / c0]
+        if self.uses_nu and nu > 0:
+            limits.append(0.125 * h * h / nu)
+        if g > 0:
+            limits.append(0.25 * math.sqrt(h / g))
+        return min(limits)
+
+    def check_params(self, params) -> None:
+        """Refuse or warn about params this scheme cannot run well (host side). Default: none."""
+
+    def initial_density(self, pressure, *, rho0: float, c0: float):
+        """Densities [n] kg/m^3 of a water column at rest under ``pressure`` [n] Pa (host, numpy),
+        or None where the scheme sums its densities (they start at rho0)."""
+        return None
+
+    # ---- in jit -----------------------------------------------------------------------------
+    def unstable_dt(self, dt: float, params, vmax):
+        """True where ``dt`` exceeds the scheme's limits for the fastest particle ``vmax`` [m/s]
+        (the in-jit check: acoustic ``0.5 h / (c0 + vmax)``, viscous ``0.25 h^2 / nu``)."""
+        f = params.fluid
+        unstable = dt > 0.5 * f.h / (f.c0 + vmax)
+        if self.uses_nu:
+            unstable |= dt * f.nu > 0.25 * f.h**2
+        return unstable
+
+    def prime(self, P, nbrs, params, config):
+        raise NotImplementedError
+
+    def advance(self, P, nbrs, params, config, *, bodies: tuple = ()):
+        raise NotImplementedError
+
+    def pressure(self, P, params):
+        """Pressure [N] Pa of the particles (output and probes)."""
+        return P.p
+
+    def elastic_energy(self, rho, params):
+        """Elastic energy per unit mass ``e(rho) = int_rho0^rho p / rho^2`` [J/kg] of the equation of state."""
+        raise NotImplementedError
+
+
+@dataclasses.dataclass(frozen=True)
+class WCSPH(FluidScheme):
+    """Weakly compressible SPH (``sph.wcsph``): continuity with density diffusion, Tait equation of
+    state with exponent ``gamma``, momentum-conserving pressure gradient, a viscous term,
+    kick-drift-kick."""
+
+    name = "wcsph"
+    continuity = True
+    kernel: Kernel = WendlandC2()
+    viscosity: Viscosity = Artificial()
+    walls: WallModel = Adami()
+    diffusion: DensityDiffusion = Fourtakas()
+    gamma: float = 7.0
+
+    def __post_init__(self):
+        for field, cls in (("kernel", Kernel), ("viscosity", Viscosity), ("walls", WallModel),
+                           ("diffusion", DensityDiffusion)):
+            _check_type("WCSPH", field, getattr(self, field), cls)
+        if not (self.gamma > 1 and math.isfinite(self.gamma)):
+            raise ValueError(f"WCSPH: gamma (the Tait exponent) must be a finite number > 1 (got {self.gamma})")
+
+    @property
+    def uses_nu(self) -> bool:
+        return self.viscosity.uses_nu
+
+    def check_params(self, params) -> None:
+        """Warn (``RuntimeWarning``) when neither artificial viscosity nor density diffusion damps the
+        pressure noise: from a settled dam break, alpha = delta = 0 gained 0.2 m g 2a of energy in
+        6 s (RESULTS.md, "energy creep"). Allowed (a user may study it), never silent."""
+        import warnings
+
+        if not isinstance(self.viscosity, Artificial):
+            return
+        f = params.fluid
+        no_visc = not np.any(np.asarray(f.alpha) > 0)
+        no_diff = not self.diffusion.active or not np.any(np.asarray(f.delta) > 0)
+        if no_visc and no_diff:
+            warnings.warn("WCSPH with Params.fluid.alpha = 0 and no density diffusion (delta = 0 or "
+                          "NoDiffusion()) leaves the pressure noise undamped (unstable after a dam-break impact). "
+                          "Set alpha > 0 (e.g. 0.02) or delta > 0 (e.g. 0.1).", RuntimeWarning, stacklevel=4)
+
+    def initial_density(self, pressure, *, rho0: float, c0: float):
+        from .eos import tait_density
+
+        return np.asarray(tait_density(pressure, rho0, c0, self.gamma))
+
+    def prime(self, P, nbrs, params, config):
+        from . import wcsph
+
+        return wcsph.prime(P, nbrs, params, config)
+
+    def advance(self, P, nbrs, params, config, *, bodies: tuple = ()):
+        from . import wcsph
+
+        return wcsph.advance(P, nbrs, params, config, bodies=bodies)
+
+    def pressure(self, P, params):
+        from .eos import tait_pressure
+
+        return tait_pressure(P.rho, params.fluid.rho0, params.fluid.c0, self.gamma)
+
+    def elastic_energy(self, rho, params):
+        f = params.fluid
+        g = self.gamma
+        B = f.rho0 * f.c0**2 / g
+        # e(rho) = B/(g-1) [ (rho/rho0)^(g-1) - 1 ] / rho0 ... integral of p/rho^2 from rho0
+        return B / rho * (jnp.power(rho / f.rho0, g) / (g - 1.0) + 1.0) - B / f.rho0 * (g / (g - 1.0))
+
+
+@dataclasses.dataclass(frozen=True)
+class SeedScheme(FluidScheme):
+    """The seed paper's scheme (``sph.seed``; Mikola & Sitar 2013): summation density with poly6,
+    linear equation of state (clamped at zero), symmetrised pressure force with the ``gradient``
+    kernel (the paper's spiky, or poly6, which comes to rest), the viscosity kernel's Laplacian
+    with ``Params.fluid.nu``, symplectic Euler."""
+
+    name = "seed"
+    gradient: SeedGradientKernel = SpikyGradient()
+    walls: WallModel = Adami()
+
+    def __post_init__(self):
+        _check_type("SeedScheme", "gradient", self.gradient, SeedGradientKernel)
+        _check_type("SeedScheme", "walls", self.walls, WallModel)
+
+    @property
+    def uses_nu(self) -> bool:
+        return True
+
+    @property
+    def kernel(self) -> Kernel:
+        """The kernel of interpolations (probes; the scheme's own sums use the Mueller set)."""
+        return WendlandC2()
+
+    def prime(self, P, nbrs, params, config):
+        from . import seed
+
+        return seed.prime(P, nbrs, params, config)
+
+    def advance(self, P, nbrs, params, config, *, bodies: tuple = ()):
+        from . import seed
+
+        return seed.advance(P, nbrs, params, config, bodies=bodies)
+
+    def elastic_energy(self, rho, params):
+        f = params.fluid
+        ratio = jnp.maximum(rho, f.rho0) / f.rho0  # the clamped law: p >= 0 (sph.seed, deviation 2)
+        return f.c0**2 * (jnp.log(ratio) + 1.0 / ratio - 1.0)
+
+
+def from_names(scheme: str = "wcsph", *, kernel: str | None = None, viscosity: str | None = None,
+               walls: str | None = None, diffusion: str | None = None, gradient: str | None = None) -> FluidScheme:
+    """The scheme named ``scheme`` with terms by name (None: the scheme's default term), as scene
+    files and the command line give them; a ``ValueError`` naming the unknown or inapplicable one."""
+    cls = type(by_name("scheme", scheme))
+    fields = {f.name for f in dataclasses.fields(cls)}
+    chosen = {"kernel": kernel, "viscosity": viscosity, "walls": walls, "diffusion": diffusion, "gradient": gradient}
+    family = {"kernel": "kernel", "viscosity": "viscosity", "walls": "walls", "diffusion": "diffusion",
+              "gradient": "seed_gradient"}
+    kwargs = {}
+    for key, value in chosen.items():
+        if value is None:
+            continue
+        if key not in fields:
+            raise ValueError(f"{key} = {value!r} does not apply to scheme {scheme!r} (its terms: {', '.join(sorted(fields))})")
+        kwargs[key] = by_name(family[key], value)
+    return cls(**kwargs)
+
+
+# the registered names of every term family (imported for their registration)
+_ = (NoDiffusion, Poly6Gradient)
