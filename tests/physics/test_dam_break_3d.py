@@ -53,7 +53,7 @@ def test_both_schemes_follow_martin_moyce_3d(errors):
     w, s = errors[rj.Scheme.WCSPH], errors[rj.Scheme.SEED]
     report = (f"wcsph {w['unshifted']:.4f} / {w['shifted']:.4f} shifted; "
               f"seed {s['unshifted']:.4f} / {s['shifted']:.4f} shifted")
-    # Stated bounds at a/dx = 10 (measured values in the module docstring): 0.12 unshifted for
+    # Stated bounds at a/dx = 10 (measured values: docs/notes.md): 0.12 unshifted for
     # both schemes; 0.04 after the best shift for WCSPH, 0.10 for seed (which is not early).
     assert w["unshifted"] < 0.12, report
     assert w["shifted"] < 0.04, report
