@@ -7,9 +7,8 @@ rebuilds the neighbour list when a particle would move more than ``skin / 2`` (t
 trigger) and at least every ``rebuild_period`` steps (default ``max(Config.rebuild_every, 32)``:
 with the trigger a list is never used stale, so the forced re-sort can be rarer than the fixed
 schedule a vmapped or differentiated rollout needs). Frames are a whole number of steps apart,
-independent of the rebuild period. Measured (``experiments/bench_driver.py``, 3D dam break, quiet
-2-core CPU, ``experiments/results/bench_driver.jsonl``): period 32 vs 8, both with the trigger,
-1.12x at 21k fluid (0.1 s from rest), 1.08x at 5.5k over the collapse and surge (0.3 s).
+independent of the rebuild period. A period of 32 is faster than 8 (fewer re-sorts; RESULTS.md
+"Host driver: forced list-rebuild period").
 """
 
 from __future__ import annotations

@@ -11,11 +11,9 @@ the same shapes).
   ``stack`` / ``unstack`` / ``member`` convert between lists and batches;
 * ``ensemble(fn, in_axes=..., batch_size=...)``: ``fn`` over every member, ``batch_size`` members
   at a time under ``jax.vmap`` and the batches one after another (``jax.lax.map``); by default all
-  members at once on an accelerator and one at a time on the CPU, where a vmapped batch ran slower
-  than its members one by one (2-core CPU, 2026-11-28, 1-64 dam-break members timed in alternation:
-  vmap 0.40-0.53x at 2.9k water particles and 0.64-0.77x at 360, the map 0.97-1.04x;
-  ``experiments/bench_grad.py --skip-grad``; on one H200 64 members ran 2.2x faster than one by
-  one, 2026-11-27). With ``shard=True`` (or a ``mesh``) the batch is split
+  members at once on an accelerator and one at a time on the CPU, where a vmapped batch runs slower
+  than its members one by one and the ``lax.map`` as fast (RESULTS.md "Gradients ... ensembles";
+  ``experiments/bench_grad.py --skip-grad``). With ``shard=True`` (or a ``mesh``) the batch is split
   over devices with ``jax.shard_map`` (each device maps ``fn`` over its slice the same way, no
   communication, so the results equal the unsharded run); a batch that does not divide evenly is
   padded with copies of its last member and trimmed;

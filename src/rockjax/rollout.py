@@ -16,11 +16,8 @@ be run with long blocks: the list is rebuilt only as often as the flow requires.
 the ``cond`` becomes a select that evaluates the rebuild every step (correct, but slow): vmapped
 ensembles should pass ``rebuild_on_displacement=False`` with a skin that covers ``rebuild_every``
 steps (``ensembles.ensemble`` maps members one at a time on the CPU, where the ``cond`` stays one).
-Measured (3D dam break, f32, 2-core CPU, ``experiments/results/bench_sph_ab.jsonl``): skin 0.45 dx
-with ``rebuild_every = 32`` and the trigger vs skin 0.6 dx every 8 steps: 1.15-1.44x faster at 21k
-fluid from rest (K 144 vs 160, one build per 32 steps), 1.05-1.2x at 5.5k in the developed surge
-(t = 0.3 s: a build every ~4.6 steps, where the fixed 8-step schedule goes stale and the
-benchmark's regrow rule, ``driver._grow_rollout``, halves it to 4).
+A small skin with long blocks and the trigger is faster than a wide skin on a fixed short schedule,
+both at rest and in a developed flow (RESULTS.md "WCSPH settings A/B", "Verlet skin").
 
 Memory of reverse mode (``checkpoint=True``). By default two nested levels under ``jax.checkpoint``:
 
@@ -35,18 +32,14 @@ intermediates, at the price of two extra forward passes (the chunk's and the ste
 steps T (``experiments/bench_grad.py`` measures it). ``checkpoint_levels`` chooses the nesting:
 1 = chunks only (a chunk's steps keep their intermediates for the backward pass), 2 = chunks and
 steps (the default), 3 = chunks, blocks and steps (one State per block of the live chunk instead
-of one per step, for one more forward pass). Measured (360-particle dam break, f32, 2-core CPU,
-T = 16 / 64 / 256 steps, ``experiments/results/bench_grad_dam_f32_levels.jsonl``): grad / forward
-5.9 / 4.0 / 3.8 with two levels (21 -> 35 MiB), 8.8 / 11.3 / 8.5 with one (407 -> 939 MiB:
-a step's intermediates are ~26 MB of [n, K] pair arrays, and writing and reading them back costs
-more than recomputing them; the un-checkpointed gradient is 7.2-10x), 6.5 / 5.6 / 6.6 with three
-(15 -> 17 MiB, an earlier run).
+of one per step, for one more forward pass). Two levels are the default: a step's intermediates
+are tens of MB of [n, K] pair arrays, which cost more to write and read back than to recompute,
+so one level is both slower and far larger on the CPU (RESULTS.md "Gradients": checkpoint levels).
 Under ``Adjoint.PAIR_SUMS`` a checkpointed step saves the outputs of its two pair passes
 (per-particle arrays, ``sph.pair_sum.SAVED_NAME``; checkpoint policy ``save_only_these_names``):
 the recomputation of the step for its VJP then skips the pair passes, whose custom VJP needs only
-their inputs. Measured (2026-11-26, dam break, 32 steps, f32, interleaved; ``saved_pair_sums(False)``
-for the A/B): 6.3 vs 7.0 and 6.41 vs 6.60 forwards at 8.4k water particles (two runs), 6.5 vs 6.9
-at 2.9k, the same memory.
+their inputs: a gradient a few per cent cheaper at the same memory (``saved_pair_sums(False)``
+turns it off for A/B timings; RESULTS.md "Gradients").
 ``checkpoint=False`` is a plain scan of blocks (the host driver's forward-only path; no memory
 saving, nothing recomputed).
 """

@@ -94,11 +94,9 @@ def test_tied_max_derivative_averages_ties_and_never_divides_by_zero(x64):
 def test_common_plane_tangent_does_not_depend_on_the_compile(x64):
     """A box resting flat on a 30 deg slope (1e-5 m overlap): its face normal and the slope's tie in
     the common-plane choice. The tangent of (normal, gap) w.r.t. the box's pose must be finite and
-    the same whether XLA optimises the program or not (``jax_disable_most_optimizations``): before
-    the tie rule of ``fcp._best`` and ``tied_max`` (2026-11-27) round-off chose: here both
-    compiles took the slope's normal (tangent 0; checked on the old code), in the incline rollout the
-    unoptimised one did while the optimised took the box's, its gap tangent was inf, and a blocks
-    gradient went 30x off. Now ties go to the first candidate: i's (the box's) face normals."""
+    the same whether XLA optimises the program or not (``jax_disable_most_optimizations``): the
+    tie rule of ``fcp._best`` and ``tied_max`` gives ties to the first candidate, i's (the box's)
+    face normals, instead of leaving the choice to round-off."""
     from fcp_cases import fcp_fn, padded
     from rockjax.blocks import geometry as geo
 

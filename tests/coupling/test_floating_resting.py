@@ -4,7 +4,7 @@ is rho g V upwards within 3 %, through the joint water pressure on the face on t
 
 The companion of ``test_floating.py`` (a floating box's draft; its module docstring has the
 analysis of the penalty coupling's bias, which shows here too). Slow: ~6.5 min per coupling on
-2 busy cores (measured 2026-11-27).
+2 busy cores.
 """
 
 import numpy as np
@@ -51,9 +51,7 @@ def test_archimedes_resting_on_the_floor(coupling):
     """Archimedes for a block *on* the floor under water: the water's total load on it (particles
     on the top and sides + the joint water on the face on the floor) is rho g V upwards, within
     3 %, although no particle is under it.  Without the joint water it is the top face's
-    downward push alone (about -10 N here, measured 2026-11-25: the block is pressed onto the
-    floor instead of buoyed).  Measured 2026-11-25, boundary particles: 9.72 N vs 9.81 N
-    (-1.0 %; fluid -10.30 N, joint 20.01 N, the tank's level raised 4 mm by the cube)."""
+    downward push alone (the block is pressed onto the floor instead of buoyed)."""
     fluid, joint, vol, z = resting_load(coupling)
     total = fluid + joint
     archimedes = 1000.0 * 9.81 * vol

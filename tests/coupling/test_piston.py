@@ -12,24 +12,17 @@ starts: fits from the arrival itself read 2-5 % lower) until the beach reflectio
 
 Tolerance: 5 % (what a wave-maker user expects of the generated height).
 
-Smoothing length: the scene's default h = 1.5 dx. At h = 1.3 dx (the default of the other scenes,
-and of this test until 2026-11-25) it failed: H/S = 0.871 at 2 depths (-11 %), the train ~3 % too
-long (k = 3.24 1/m vs 3.33), first order in dx (0.909 at dx = 0.02 m); alpha and free-slip walls
-did not close it. The cause found 2026-11-25: at h = 1.3 dx a resting cubic lattice does not stay
-(``experiments/hydrostatic_rest.py``: from ~0.5 s the particles rearrange and the pressure
-fluctuates by +-3-5 %), which is how this flume starts; at h = 1.5 dx it stays, and
-``experiments/piston_decay.py`` (dx = 0.03 m, h = 1.5 dx, 6.4 s) gives H/S = 0.941 at 2 depths
-(-4.1 %), 0.955 / 0.941 / 0.913 / 0.932 at 1 / 2 / 3 / 4 depths, and k = 3.320 1/m (-0.4 %).
-The wave height here is 1.2 dx, far below the ~10 particles per wave height SPH wave studies use.
+Smoothing length: the scene's default h = 1.5 dx. At h = 1.3 dx (the other scenes' default) a
+resting cubic lattice does not stay (its particles rearrange and the pressure fluctuates), which
+is how this flume starts, and the waves come out too low and too long. The wave height here is
+1.2 dx, far below the ~10 particles per wave height SPH wave studies use.
 
 The gauge record is taken relative to the same flume's with the paddle still (stroke 1e-5 m):
-since 2026-11-25 the walls follow the 0.3 beach (``scenes.shapes.shell``), and the cubic water
-lattice next to them slumps at the start, sending a depression of ~5-7 mm down the flume that
-reaches the gauge within the window (still-water gauge 6.8 mm peak to peak there; 4.9 mm with
-the beach a lattice staircase). Measured the same day (dx = 0.03 m): raw H/S 0.930 with the
-face-following beach, 0.942 with the staircase; relative to the still run 0.937 and 0.939 --
-the difference was the start transient, which the subtraction removes (with the paddle's
-stroke-independent gauge bias, -1.6 mm).
+the cubic water lattice next to the face-following beach walls (``scenes.shapes.shell``) slumps
+at the start and sends a small depression down the flume that reaches the gauge within the
+window; the subtraction removes it (and the paddle's stroke-independent gauge bias). The
+measurements behind these choices are in RESULTS.md ("Piston wave maker", "Piston flume") and
+docs/notes.md.
 
 Slow (~8-10 min on 2 quiet cores, two runs): ``pytest -m slow tests/coupling/test_piston.py``.
 """

@@ -2,59 +2,15 @@
 couplings: no instability (the driver raises on any fatal status bit), the wave recorded by the
 gauges and as run-up on the beach, no water inside the wedge, the wedge down on the floor.
 
-Slow (about 40 s per coupling on 2 cores, 2026-11-25): ``pytest -m slow tests/coupling/test_wedge_run.py``.
+Slow (about 40 s per coupling on 2 cores): ``pytest -m slow tests/coupling/test_wedge_run.py``.
 
-Measured failures are kept as strict xfails with their numbers (2026-11-23, dx 0.04; the first
-and third were fixed on 2026-11-25, below):
-* penalty (seed Eq 22): the wedge stops on the slope at z = -0.16 m (centroid; the floor is at
-  -0.40 m) after ~1.45 s although its friction angle (15 deg) is below the slope (25 deg); with
-  boundary particles it slides on to the floor (reached at ~1.56 s). Statics of the resting wedge
-  explain it: the fluid load (-52, 0, -40) N pushes it up-slope (-30 N) and into the slope
-  (+58 N), so the normal force is 221 N (weight part 163 N) and friction can hold 59 N > the
-  46 N net driving force. The water presses on the top and front faces but none reaches the
-  hypotenuse sealed against the slope (no uplift: real joints carry water pressure). With
-  boundary particles the load is similar, (-69, 0, -85) N at 1.5 s, but the wedge, still moving
-  (0.32 m/s), reaches the floor first.
-* boundary particles, water inside the wedge: with the boundary-particle lattice of 2026-11-23
-  (started at the bounding box's corner, points within dx/4 of a face dropped) water was found
-  0.6 dx inside, and 0.44-0.54 dx below the top face with the wedge at rest: the 4.66 dx tall
-  wedge's top layer sat 1.16 dx deep. Since 2026-11-25 the lattice is aligned with the top and
-  front faces (``scenes.coupled.sample_block_particles``; ``experiments/wedge_inside.py``): worst
-  0.376 dx (t = 1.04 s, against the slope face near the front-bottom edge, whose lattice cannot be
-  aligned), 0.15 dx at rest. Still a strict xfail.
-* boundary particles, sliding to the floor: with the 2026-11-23 lattice the wedge reached the floor
-  still moving (0.32 m/s at 1.5 s). With the aligned lattice (2026-11-25) it decelerated from
-  1.0 m/s at 0.7 s to rest at ~1.6 s with its centroid at z = -0.202 m (criterion < -0.213 m),
-  under a fluid load (-67, 0, -80) N: the penalty case's mechanism.
-
-Fixed 2026-11-25 by the joint water pressure (``blocks.joint_water``, on by default in
-``sliding_wedge``): the face on the slope carries the still water's hydrostatic pressure, as real
-joints do (the particles cannot enter a joint thinner than dx). Measured (dx 0.04, 2 s): both
-couplings slide on (~0.6-0.85 m/s penalty, ~1.0 m/s boundary particles) and stop against the
-floor, centroid z = -0.281 m (penalty, at ~1.7 s) and -0.292 m (boundary particles, ~1.5 s);
-run-up 0.073 m with either. Water inside
-the boundary-particle wedge: worst 0.452 dx (t = 0.97 s, against the slope face near the
-front-bottom edge; 0.376 dx without joint water, the wedge being slower), still a strict xfail.
-
-Later on 2026-11-25 the block's particles were resampled (``scenes.block_sampling``: an outer
-layer exactly dx/2 inside every face, a lattice behind it, the 25 deg edge covered, each particle
-with its share of the block's shell as volume; the lattice had the slope face's outer layer
-anywhere 0.06-0.96 dx deep). ``experiments/wedge_inside.py`` with the final sampling: worst
-0.309 dx, at t = 0.67 s at the front-top edge as the wedge enters the water (0.37 dx inside the
-front face, 0.31 dx below the top: pressed between the edge's particles by the impact), no
-particle past the outer layer; the slope-face and tip cases are gone. Runs with intermediate
-samplings (same file) also showed a single slow particle slipping through the top face's outer
-layer, between particles dx apart, at ~1.9-2.0 s with the wedge at rest (up to 1.04 dx deep):
-the particle wall is not a tight barrier.
-
-Fixed later on 2026-11-25 by the guard (``Config.coupling_guard``, on by default with boundary
-particles): the seed Eq 22 penalty also acts within dx/4 of a face, where water at rest does not
-sit (a spacing from the outer layer, dx/2 deep), and its reaction goes to the block. Measured
-(``experiments/wedge_inside.py``, dx 0.04, 2 s, same session, guard on / off): the closest water
-0.243 dx outside the faces / 0.309 dx inside; the guard's load at most 40.5 N (impact) and 0.9 N
-of the 126 N load over the last 0.3 s (wedge at rest); the wedge ended at x = 0.772 / 0.808 m
-(the water no longer leaking in at the impact brakes it more). The floating box still settles
-within 3 % (``test_floating.py``: -2.8 % with the guard, -2.3 % without, same session).
+The wedge slides to the floor because its face on the slope carries the still water's
+hydrostatic pressure (``blocks.joint_water``, on by default in ``sliding_wedge``; the particles
+cannot enter a joint thinner than dx): without it both couplings stop it on the slope although
+its friction angle (15 deg) is below the slope (25 deg). With boundary particles the guard
+(``Config.coupling_guard``: the seed Eq 22 penalty within dx/4 of a face) keeps the water out of
+the moving wedge. Known failures are strict xfails that carry their measured numbers; the
+history of these checks is in docs/notes.md.
 """
 
 import jax.numpy as jnp
@@ -121,7 +77,7 @@ def _closest_to_fixed(scene, res):
 def test_no_water_inside_fixed_blocks(run, request):
     """The fixed slope and floor are met by the water as wall particles, which keep it out only
     as long as nothing presses a particle between them: at the toe, between the resting wedge and
-    the slope, one is (strict xfails, measured 2026-11-25, below). ``Config.guard_fixed`` keeps it
+    the slope, one is (strict xfails, with the measured depths). ``Config.guard_fixed`` keeps it
     out: ``test_guard_fixed_keeps_water_out_of_fixed_blocks``."""
     coupling, scene, res = run
     reason = {rj.Coupling.PENALTY: "measured 2026-11-25: water 0.208 dx inside the fixed slope at the toe (floor +0.171 dx)",
@@ -138,10 +94,8 @@ def test_no_water_inside_fixed_blocks(run, request):
 def test_guard_fixed_keeps_water_out_of_fixed_blocks():
     """Boundary particles with ``Config.guard_fixed`` (the seed Eq 22 penalty within dx/4 of the
     fixed blocks' faces, a kick with no load; ``coupling.penalty.guard_fixed``): no water inside the
-    fixed slope or floor. Measured 2026-11-25: closest 0.250 dx outside the slope, 0.272 dx above
-    the floor (0.295 dx in ``experiments/wedge_inside.py --guard-fixed``'s frames). Not offered
-    with the penalty coupling: guarded so, block_drop's box was held 0.75 dx above the floor on a
-    trapped film of water (kept out of the slope: +0.248 / +0.261 dx)."""
+    fixed slope or floor (closest water outside 0 dx). Not offered with the penalty coupling,
+    where a guarded floor holds a landing block on a trapped film of water."""
     scene = rj.scenes.sliding_wedge(dx=DX, coupling=rj.Coupling.BOUNDARY_PARTICLES)
     scene = scene.replace(config=scene.config.replace(guard_fixed=True))
     res = rj.simulate(scene, t_end=T_END, frame_dt=0.05, progress=False)

@@ -16,14 +16,11 @@ The contact test starts the box 2 mm above the slope: it falls, the contact clos
 opens again in a bounce (step ~164) and closes again; the gradient must stay finite and still
 match finite differences across those events.
 
-Tolerance: 1 % relative (the issue's bound). Measured (2026-11-27, this CPU, f64): friction 2e-9,
-density 3e-5 (smooth slide); friction 3e-10, density 5e-7 (with the bounce). The finite
-difference step is 1e-4 relative: its truncation error measured against 1e-3 and 1e-5 is < 1e-4.
-The same numbers with unoptimised compiles (``JAX_DISABLE_MOST_OPTIMIZATIONS=1``). Before
-2026-11-27 these compiles gave AD 30x (density) and 9 % (friction, bounce) off the finite
-differences: the resting box's face normal and the slope's tie in the common-plane choice, and
-the gradient program broke the tie by round-off differently from the forward one
-(``blocks.fcp._best`` now breaks ties within 16 ulps by candidate order).
+Tolerance: 1 % relative (the issue's bound). The finite difference step is 1e-4 relative (its
+truncation error, against steps of 1e-3 and 1e-5, is < 1e-4). The test also holds with
+unoptimised compiles (``JAX_DISABLE_MOST_OPTIMIZATIONS=1``): the resting box's face normal and the
+slope's tie in the common-plane choice, and ``blocks.fcp._best`` breaks ties within 16 ulps by
+candidate order, so the forward and gradient programs choose the same plane.
 Blocks tests elsewhere (tests/blocks/) check the forward physics; they take no gradients.
 """
 

@@ -5,7 +5,7 @@ water at dx = 0.05 m (408 fluid, 4390 wall particles; WCSPH; each coupling: seed
 and boundary particles),
 248 steps (0.19 s). Observables: the wedge's down-slope coordinate at the end, and the
 free-surface elevation at a gauge 0.15 m beyond the shoreline; gradients w.r.t. the wedge density, the wedge-slope friction angle and
-(since 2026-11-25, the scene's joint water being on) the joint water level, whose pressure acts on
+the joint water level (the scene's joint water is on), whose pressure acts on
 the wet part of the wedge's face on the slope as it enters the water.
 
 Why the horizon is not chaotic: 0.19 s covers the entry of the wedge (it moves ~8 cm, at
@@ -13,16 +13,7 @@ Why the horizon is not chaotic: 0.19 s covers the entry of the wedge (it moves ~
 stick/slip switching (tan 15 < tan 40); neighbour lists are under stop_gradient with a C2
 compact kernel, so list changes are smooth.
 
-Tolerance 1 % relative; slow (122 s for both cases on 2 cores, 2026-11-25, most of it the
-compile). Measured 2026-11-25 with joint water (f64, FD step 1e-4 relative, 1e-4 m for the level
-at 0): wedge position w.r.t. density 2.6e-8 (AD 4.504e-7 m per kg/m^3), friction angle 6.5e-9
-(AD -0.1364 m/rad), joint water level 8.0e-5 (AD 0.01361 m/m); gauge elevation w.r.t. density
-1.5e-7 (AD 2.97e-8 m per kg/m^3), friction angle 5.3e-7 (AD -0.01142 m/rad), joint water level
-7.1e-5 (AD 1.26e-3 m/m).
-Boundary particles (2026-11-25, the loads from the (fluid, block particle) sub-list, 99 s): wedge
-position w.r.t. density 2.1e-8 (AD 4.860e-7), friction angle 1.7e-9 (AD -0.1366), joint water
-level 7.9e-5 (AD 0.01373); gauge elevation 5.7e-9 (AD 6.18e-8), 2.3e-7 (AD -0.01521), 5.8e-5
-(AD 1.80e-3).
+Tolerance 1 % relative; slow (about 2 min for both cases on 2 cores, most of it the compile).
 """
 
 from __future__ import annotations

@@ -33,13 +33,12 @@ def _errors(scheme):
 
 def test_wcsph_surge_front():
     unshifted, shifted = _errors("wcsph")
-    # Stated bounds at a/dx = 10 (measured 2026-11-23: 0.050 and 0.025).
+    # Stated bounds at a/dx = 10 (measured values: RESULTS.md "Time vs error").
     assert unshifted < 0.10
     assert shifted < 0.04
 
 
 def test_seed_surge_front():
     unshifted, shifted = _errors("seed")
-    # Stated bound at a/dx = 10: 0.10 unshifted (measured 2026-11-23 after the seed.py fixes: 0.067,
-    # the front lagging by ~0.1-0.3 a at T = 1.2-3; the paper's scheme as printed gave 0.40).
+    # Stated bound at a/dx = 10: 0.10 unshifted (the seed scheme's front lags the experiment late).
     assert unshifted < 0.10

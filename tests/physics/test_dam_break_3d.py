@@ -6,10 +6,7 @@ Reference: data/validation/martin_moyce_1952_surge_front_n2_2.csv (Table 2, src 
 header and data/validation/SOURCES.md). Metric: RMS relative error of Z(T) = front/a at the 13
 reference times 0 < T <= 3 (T = t sqrt(2 g / a)), unshifted and after the best time shift.
 
-Measured 2026-11-23 (this 2-core CPU, ~60 s per scheme at a/dx = 10; ~45 s at 8):
-  wcsph  a/dx = 10: 0.082 unshifted, 0.026 best shift   (a/dx = 8: 0.074 / 0.022)
-  seed   a/dx = 10: 0.064 unshifted, 0.064 best shift   (a/dx = 8: 0.075 / 0.075)
-WCSPH runs ahead of the experiment early (the experiment's gate release; the shift absorbs it),
+About 60 s per scheme on 2 CPU cores at a/dx = 10. WCSPH runs ahead of the experiment early (the experiment's gate release; the shift absorbs it),
 the seed scheme behind it late. Slow: the 2D slab version (tests/physics/test_dam_break.py) is
 the default-run check of the same physics.
 """
@@ -56,7 +53,7 @@ def test_both_schemes_follow_martin_moyce_3d(errors):
     w, s = errors["wcsph"], errors["seed"]
     report = (f"wcsph {w['unshifted']:.4f} / {w['shifted']:.4f} shifted; "
               f"seed {s['unshifted']:.4f} / {s['shifted']:.4f} shifted")
-    # Stated bounds at a/dx = 10 (measured values in the module docstring): 0.12 unshifted for
+    # Stated bounds at a/dx = 10 (measured values: docs/notes.md): 0.12 unshifted for
     # both schemes; 0.04 after the best shift for WCSPH, 0.10 for seed (which is not early).
     assert w["unshifted"] < 0.12, report
     assert w["shifted"] < 0.04, report

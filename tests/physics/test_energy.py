@@ -11,14 +11,6 @@ m g a): E(t) - E(0) <= 1e-3 and E(t) - min_{s <= t} E(s) <= ... (growth after a 
 below (3e-3 for both). The impact dissipates 0.11-0.15 m g (2a) by T = 3, so the bounds are
 < 3 % of it.
 
-Measured 2026-11-23 (units m g 2a; T_END = 3, 34 / 28 frames):
-  WCSPH a/dx = 6: growth 2.8e-5, rebound 1.35e-3 (elastic energy of the impact, frame 19 -> 20),
-      lost 0.145; lowest particle centre 0.069 dx below the floor surface (above the first wall layer).
-      (Run to T = 4 with 28 frames: growth 0, rebound 0, lost 0.166: the rebound depends on the sampling.)
-  seed a/dx = 8: growth 9.2e-5, rebound 9.2e-5, lost 0.114 (to T = 4: 1.0e-4; to T = 6: rebound 1.4e-3).
-Measured 2026-11-26, WCSPH with the pair-mean Fourtakas diffusion (``sph.diffusion.Fourtakas``;
-the numbers above are the old term's, ``FourtakasSurface``): growth 2.7e-5, rebound 1.33e-3, lost
-0.145; lowest particle centre 0.067 dx below the floor surface.
 Runtime ~70 s CPU for both.
 """
 

@@ -70,12 +70,9 @@ def test_pressure_within_one_percent_at_benchmark_resolution():
     """Benchmark resolution: 20 particle layers (dx = depth / 20), h = 1.5 dx, an infinite layer
     (periodic x, y; 8 dx period) so that only the floor and the free surface bound the water.
 
-    Measured 2026-11-23 (~2 min): p / (rho0 g d) = 1.0026, 1.0037, 1.0052, 1.0066, 1.0081 at
-    d = 0.05 ... 0.17 m, steady from 0.4 s to 1.6 s (``experiments/hydrostatic_rest.py``). At
-    h = 1.3 dx the same scene is not at rest: from ~0.5 s the cubic lattice rearranges (mean
-    displacement 0.6 dx by 1.6 s) and the pressure fluctuates 0.97-1.05 of rho g d, time mean
-    1.001-1.014 (remeasured 2026-11-25; the 1.034-1.037 recorded here before was one frame of that
-    fluctuation, not a steady bias), so only h = 1.5 dx meets 1 %.
+    Against the closed form rho0 g d at depths 0.05-0.17 m, within 1 % (~2 min). At h = 1.3 dx
+    the same scene is not at rest: the cubic lattice rearranges and the pressure fluctuates by a
+    few per cent (RESULTS.md "A layer of water at rest"), so only h = 1.5 dx meets 1 %.
     """
     dx = DEPTH / 20
     L = 8 * dx

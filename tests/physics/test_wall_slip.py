@@ -8,9 +8,8 @@ Scene: ``hydrostatic_tank(periodic_xy=True)`` 0.14 x 0.14 m, 0.08 m deep, dx = 0
 given u = 0.2 m/s, 384 steps (0.2 s: the fluid lattice slides two spacings over the wall lattice).
 The walls' pressure forces on the sliding lattice oscillate with the lattice phase (period dx / u,
 measured amplitude ~0.3 % of u), so the test compares the mean velocity over the first and the
-second lattice period. Bounds: free slip changes it by less than 1e-3 u (measured 2026-11-23:
-2e-5); the viscous bed (artificial viscosity alpha = 0.02 next to the bed) slows it by more than
-1e-2 u (measured 0.017).
+second lattice period. Bounds: free slip changes it by less than 1e-3 u; the viscous bed
+(artificial viscosity alpha = 0.02 next to the bed) slows it by more than 1e-2 u.
 """
 
 import jax

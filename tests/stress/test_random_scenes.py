@@ -80,7 +80,7 @@ def test_random_coupled_scene(seed, kind, size, density, speed, dx, coupling):
     cfg = res.scene.config
     assert int(s.nbrs.max_count) <= cfg.neighbour_capacity
     # ``max_run`` is the fullest search range in ``cell_capacity`` units, rounded up; a range holds
-    # L = ceil8(ratio * cell_capacity) slots, so it fits while max_run <= ceil(L / ratio) (2026-11-25:
-    # 178 > cell_capacity 176 with L = 40 slots, 37 used -- comparing with cell_capacity was wrong)
+    # L = ceil8(ratio * cell_capacity) slots, so it fits while max_run <= ceil(L / ratio) (L is
+    # rounded up to a multiple of 8, so max_run may exceed cell_capacity and still fit)
     L, ratio = range_capacity(cfg)
     assert int(s.nbrs.max_run) <= math.ceil(L / ratio), (int(s.nbrs.max_run), L, ratio)

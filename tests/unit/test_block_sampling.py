@@ -135,10 +135,8 @@ def test_volumes_give_the_solid_kernel_sum(name):
     particles it should be the integral of W over the solid, int_block W(x - y) dy. At 400 points
     on the faces (h = 1.3 dx; the integral by Monte Carlo, 1e6 points): the particles with their
     volumes (each its nearest-particle share of the 3 dx shell; they sum to the shell's volume)
-    within 10 % rms and 25 % at worst. Measured 2026-11-25: 0.027 / 0.100 (wedge), 0.053 / 0.138
-    (hull); a cubic lattice clipped by the block with dx^3 each (the sampling before 2026-11-25)
-    0.060 / 0.301 and 0.154 / 0.545; these particles with dx^3 each 0.075 / 0.404 and 0.228 /
-    0.832 (over-dense at edges and corners)."""
+    within 10 % rms and 25 % at worst (a clipped cubic lattice with dx^3 each, or these particles
+    with dx^3 each, over-dense at edges and corners, fail that)."""
     poly = BLOCKS[name]
     n, d = _faces(poly)
     h = 1.3 * DX

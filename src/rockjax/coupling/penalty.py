@@ -78,10 +78,10 @@ def _exchange(P: Particles, blocks, params: Params, config: Config):
         continuity sum misses inside the blocks (``wall_terms``), else None.
 
     Per block, the nearest face is found by a static loop over the faces on [n_fluid] arrays
-    (signed distance and face index), then its world normal is gathered from an [F, 3] table.
-    Measured on CPU (sliding wedge, 4.3k fluid particles): 0.08 ms for the load, against 0.4 ms
-    as [n_fluid, Bc, F] einsums with an argmax gather, and 1.4 ms with the face loop carrying
-    the normal's components (XLA fuses that chain into every component of the consumers).
+    (signed distance and face index), then its world normal is gathered from an [F, 3] table:
+    on the CPU this is several times faster than [n_fluid, Bc, F] einsums with an argmax gather,
+    or a face loop carrying the normal's components (XLA fuses that chain into every component of
+    the consumers).
     """
     idx = coupled_blocks(config)
     nf = config.n_fluid
@@ -200,14 +200,13 @@ def guard_fixed(P: Particles, blocks, params: Params, config: Config) -> Particl
     """Kick the fluid by ``dt`` times the penalty acceleration of the FIXED blocks (no reaction:
     fixed blocks take no load), within ``CouplingParams.interaction_distance`` (dx/4 by default);
     the same force as ``accelerations`` (a fixed block's surface is at rest), all fixed blocks in
-    one [n_fluid, blocks, faces] evaluation (0.35 ms against 0.42 ms as a face loop per block,
-    sliding wedge at dx 0.04). With boundary particles, ``Config.coupling_guard`` and
+    one [n_fluid, blocks, faces] evaluation (a little faster than a face loop per block). With boundary particles, ``Config.coupling_guard`` and
     ``Config.guard_fixed`` the step guards fixed blocks too: their
     faces are met by wall particles, which, like a moving block's particles, do not stop a
-    particle pressed between them (measured in the sliding wedge: one trapped at the toe 0.34 dx
-    inside the fixed slope). Not with the penalty coupling: there a block landing on a guarded
-    fixed floor was held 0.75 dx above it (dx/2 + dx/4) on a film of water that had, without
-    the guard, been pressed into the floor's walls (``block_drop``, measured 2026-11-25).
+    particle pressed between them (in the sliding wedge one gets trapped at the toe inside the
+    fixed slope). Not with the penalty coupling: there a block landing on a guarded fixed floor is
+    held dx/2 + dx/4 above it on a film of water that, without the guard, is pressed into the
+    floor's walls (``block_drop``).
     """
     which = fixed_blocks(config)
     if not which:

@@ -6,7 +6,7 @@ the block. As for the tank walls, the outer layer must lie dx/2 inside every fac
 fluid's first layer rests ~dx/2 outside the particles, i.e. at the face. A cubic lattice clipped
 by the block cannot do this for a face that is not aligned with it: along an inclined face the
 outer layer's depth is a staircase anywhere in (0, dx] and water settles up to ~dx/2 inside the
-block (``experiments/wedge_inside.py``: 0.45 dx inside the sliding wedge's 25 deg face).
+block (RESULTS.md "Water inside the sliding wedge").
 
 * Outer layer: the surface of the block shrunk by dx/2 (the half-space intersection of the faces
   moved inwards; faces may vanish near acute edges) -- its vertices, its edges at spacing <= dx

@@ -35,10 +35,9 @@ def fill(lo, hi, dx: float, halfspaces, *, margin: float = 0.3) -> np.ndarray:
     """Lattice points in the box [lo, hi] with clearance > margin * dx (the water).
 
     Next to an inclined face the water lattice's staircase leaves 0.8-1.8 dx to ``shell``'s
-    face-following wall layer. Keeping the water dx/2 off such faces (so that it starts a spacing
-    or more from the wall, as on aligned walls) was tried on 2026-11-25 and not kept: the water
-    on the piston flume's beach slumped more at the start (still-water gauge 2 depths from the
-    paddle: 12.3 mm peak to peak over the test's window, 6.8 mm without, 4.9 mm with lattice walls).
+    face-following wall layer. The water is not kept dx/2 off such faces (so that it would start
+    a spacing or more from the wall, as on aligned walls): the water on a sloping beach then
+    slumps more at the start (docs/notes.md, "From the source docstrings").
     """
     pts = lattice(lo, hi, dx)
     return pts[clearance(pts, halfspaces) > margin * dx]
@@ -54,9 +53,8 @@ def shell(lo, hi, dx: float, halfspaces, layers: int, *, follow_faces: bool = Tr
     face of the region grown by (k + 1/2) dx (the points whose nearest face it is), rows along
     the face polygon's longest edge; those closer than dx/2 to a kept point are dropped (the
     lattice points first). So the outer layer lies exactly dx/2 behind every face, as on a
-    lattice-aligned wall; as a clipped lattice (``follow_faces=False``, the only form before
-    2026-11-25) an inclined face is a staircase whose first layer is 0-1 dx deep, and water
-    entered the sliding wedge's 25 deg slope up to 0.3 dx.
+    lattice-aligned wall. As a clipped lattice (``follow_faces=False``) an inclined face is a
+    staircase whose first layer is 0-1 dx deep, and water enters a 25 deg slope up to 0.3 dx.
     """
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     pts = lattice(lo, hi, dx)

@@ -19,7 +19,7 @@ the row's own index.
 
 Sub-cells halve the candidate volume of the classic 27-cell search (125 (r/2)^3 vs 27 r^3 around
 a row), and merging the segments halves the slot count again; together with the compaction this
-measured ~3.5-4x faster than the previous build (per-segment 3-cell runs, cumsum + scatter).
+is several times faster than per-segment 3-cell runs with a cumulative sum and a scatter.
 
 Nothing is dropped silently: a range holding more than its capacity sets ``CELL_OVERFLOW`` (the
 reported ``max_run`` is scaled to ``Config.cell_capacity`` units, so the driver's regrow rule
@@ -221,7 +221,7 @@ def scan_rows(fn, n_rows: int, tile: int, carry):
     predecessor). Returns ``(carry, out)`` with ``out`` [n_rows, ...].
 
     A pass over all rows at once materialises every [n, K] pair intermediate in memory; in blocks
-    they stay in cache (measured 2x faster for the momentum sum at 21k rows, tiles of 256-1024 rows). With
+    they stay in cache (about 2x faster for the momentum sum on the CPU at 21k rows). With
     ``tile <= 0`` or ``n_rows <= tile`` the pass is one block (no loop).
     """
     if tile <= 0 or n_rows <= tile:
@@ -350,8 +350,8 @@ def _candidate_words(x_rows, xm, start, end, pos_rows, L: int, grid: GridSpec, r
     ``_pack_bits`` of the [R_rows, R L] mask would give.
 
     The words are produced directly, 32 bit planes fused into one loop over [R_rows, W]: computing
-    the [R_rows, R, L] mask and then padding and packing it measured 3x slower (36 -> 13 ms at
-    21k rows, 25 ranges of 40 slots), since XLA:CPU does the reshape + pad + small-axis reduction
+    the [R_rows, R, L] mask and then padding and packing it is ~3x slower, since XLA:CPU does the
+    reshape + pad + small-axis reduction
     in separate passes over the big mask. Needs ``L % 8 == 0`` (a byte never straddles two ranges).
     """
     if L % 8:
@@ -385,9 +385,8 @@ def _uniform_cond(pred, fast, full, operand):
     every member, else ``full`` on the whole batch: so ``full`` must give ``fast``'s result where
     ``pred`` holds (or ``pred`` must be the same for all members). For integer work off the
     gradient only (list builds): ``custom_vmap`` has no reverse mode, so no operand may carry a
-    tangent. Measured (2026-11-28, dam scene, 2.9k water particles, 2-core CPU, three interleaved
-    runs): a vmapped list build of one member took 1.5x the plain build's time with this, 2.0-2.4x
-    with the selects (``_materialise`` had lost its fusion boundary).
+    tangent. A vmapped list build then costs little more than the plain build, where the selects
+    cost about twice as much (and ``_materialise`` loses its fusion boundary).
     """
 
     @jax.custom_batching.custom_vmap

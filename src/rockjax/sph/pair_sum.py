@@ -3,8 +3,8 @@
 A WCSPH pass computes, for every fluid row i, ``out_i = sum_k fn(i, j = idx[i, k])`` over its
 listed neighbours. Reverse-mode AD of that (``Adjoint.AUTODIFF``) transposes every neighbour
 gather into a scatter-add and materialises each per-pair intermediate of the pass as an
-[n_fluid, K] array (98 of them in a step's VJP against 15 in its forward, 2026-11-26), which makes
-a step's VJP 12-15x its forward on the CPU.
+[n_fluid, K] array (about a hundred of them in a step's VJP against 15 in its forward), which
+makes a step's VJP many times its forward on the CPU.
 
 ``Adjoint.PAIR_SUMS`` gives the pass a custom VJP that uses the list's symmetry instead (fluid j
 is listed in row i exactly when i is listed in row j; a pair that is in one list only lies beyond
@@ -26,25 +26,15 @@ evaluations, in the row blocks and over the wall list alike. The forward is the 
 either way; the custom VJP serves reverse mode only (``jax.grad``, ``jax.vjp``): ``jax.jvp``
 through it raises, so forward mode needs ``Adjoint.AUTODIFF``.
 
-Measured (2026-11-26, f32, 2 CPU cores; ``experiments/bench_grad.py --adjoint-ab``: 32-step
-checkpointed dam-break gradients, interleaved in one process): where the forward runs in blocks of
-512 rows (lists over 2^19 slots) the gradient costs 6.8-6.9 forwards with ``PAIR_SUMS`` against
-9.7 (8.4k water particles) and 11.0 (23k) with ``AUTODIFF``; at 2.9k, in one block, ``AUTODIFF``
-is the faster (6.9 vs 8.4), as a standalone step's VJP would not suggest (17 vs 27 ms): inside
-the rollout's scan XLA runs JAX's transposed pass faster than alone, and this VJP's row blocks add
-~4x the operations (``jax.profiler``: 510k vs 112k per 64-step gradient, the same thread time).
-Hence ``Config.adjoint``'s default (``effective_adjoint``).
-
-With the hand-derived pullbacks (2026-11-26, same benchmark, interleaved): 7.0 forwards
-at 2.9k in one block (``jax.vjp`` of the pair functions: 7.6; ``AUTODIFF`` 7.1), 6.8 at 8.4k and 6.6
-at 23k in blocks of 512 rows (7.4 / 7.5; ``AUTODIFF`` 10.7 / 12.0); with the rollout's steps also
-keeping the pair sums' outputs (``SAVED_NAME``): 6.4, 6.1 and 6.0 (7.1 / 6.7 / 6.8; ``AUTODIFF``
-6.9 / 9.8 / 11.0). Per 240-row block of the momentum pass, alone, 0.29 ms
-against 0.46 ms with ``jax.vjp`` from each end (forward 0.14 ms); in the pass, XLA:CPU writes each
-per-pair intermediate of the block to memory as its own loop (~40 [240, K] arrays), so the pass's
-reverse stays ~4-6x its forward. Stacking the wall columns' cotangents into one [M, C] scatter was
-slower (XLA fused the stack and recomputed each column's whole expression: 7.2 vs 2.6-3.5 ms for
-the continuity pass at 8.4k), hence a scatter per quantity.
+Why the default (``Config.adjoint``, ``effective_adjoint``): where the forward runs in row blocks
+(lists over 2^19 slots) a checkpointed gradient is markedly cheaper with ``PAIR_SUMS``; on smaller
+lists, in one block, ``AUTODIFF`` is about as fast inside a rollout's scan (XLA runs JAX's
+transposed pass faster there than alone, and this VJP's row blocks add operations) and keeps
+``jax.jvp`` working (RESULTS.md "Gradients": adjoint A/B). The hand-derived pullbacks make a row
+block's backward cheaper than ``jax.vjp`` from each end; the pass's reverse still costs several
+forwards, since XLA:CPU writes each per-pair intermediate of a block to memory as its own loop.
+The wall columns' cotangents take one scatter per quantity: one stacked [M, C] scatter is slower
+(XLA fuses the stack and recomputes each column's whole expression).
 """
 
 from __future__ import annotations
@@ -69,11 +59,8 @@ __all__ = ["pair_sum", "gathered", "with_pullback", "hand_pullbacks", "SAVED_NAM
 PairFn = Callable
 
 #: rows per block of the reverse pass when the forward runs in one block (``Config.row_tile`` 0 or
-#: unset on a small list): its per-pair derivatives stay in cache. One WCSPH step's VJP at 2 880
-#: fluid rows, K = 120, f32 (2026-11-26): with ``jax.vjp`` of the pair functions 17 ms in blocks of
-#: 64-512 rows, 34 ms of 1 024, 46 ms in one; with the hand-derived pullbacks 14.4 ms in blocks of
-#: 512, 17.0 of 256, 21.3 of 1 024, and the 32-step checkpointed gradient 6.8 forwards in blocks of
-#: 384 or 512 against 7.1 of 256 (``AUTODIFF``: 7.0; interleaved).
+#: unset on a small list): its per-pair derivatives stay in cache. 512 was the fastest block size
+#: of a WCSPH step's VJP on the CPU (smaller blocks add loop steps, larger ones leave the cache).
 BACKWARD_TILE = 512
 
 #: ``jax.ad_checkpoint.checkpoint_name`` of the pair sums' outputs under ``Adjoint.PAIR_SUMS``:
