@@ -69,10 +69,11 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
         kw["skin_factor"] = skin_factor
     if rebuild_every is not None:
         kw["rebuild_every"] = rebuild_every
-    if diffusion is not None:
-        kw["density_diffusion"] = rj.DensityDiffusion(diffusion)
+    fluid_scheme = rj.sph.from_names(scheme)
+    if diffusion is not None and hasattr(fluid_scheme, "diffusion"):  # WCSPH's term; the seed scheme has none
+        fluid_scheme = fluid_scheme.replace(diffusion=rj.sph.by_name("diffusion", diffusion))
     t0 = time.perf_counter()
-    scene = rj.scenes.dam_break(dx=0.5 / nx, scheme=rj.Scheme(scheme), **kw)
+    scene = rj.scenes.dam_break(dx=0.5 / nx, scheme=fluid_scheme, **kw)
     setup_s = time.perf_counter() - t0
     if gather is not None or row_tile is not None:  # speed settings (GatherForm, Config.row_tile)
         scene = scene.replace(config=scene.config.replace(
@@ -141,8 +142,10 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
     ms_build = 1e3 * best(refresh_c, state)
     ms_step = 1e3 * best(advance_c, state, params)
     nf, nw = counts["fluid"], counts["wall"]
+    diffusion_term = getattr(config.scheme, "diffusion", None)  # WCSPH's; None for the seed scheme
     return {
-        "bench": "sph_dam_break_3d", "tag": tag, "size": size, "scheme": scheme, "diffusion": config.density_diffusion.value,
+        "bench": "sph_dam_break_3d", "tag": tag, "size": size, "scheme": scheme,
+        "diffusion": diffusion_term.name if diffusion_term is not None else None,
         "gather": config.effective_gather.value, "row_tile": config.effective_row_tile, "n_fluid": nf, "n_wall": nw,
         "dx": 0.5 / nx, "dtype": str(np.asarray(state.particles.x).dtype),
         "K": config.neighbour_capacity, "cell_capacity": config.cell_capacity,
@@ -162,7 +165,7 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
 
 def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: float = 0.0, tag: str = "") -> dict:
     """Interleaved A/B in one process: for each spec ``SKIN:K:TRIGGER[:DIFFUSION]`` (skin / dx,
-    rebuild_every, 0/1, optionally a ``DensityDiffusion`` value) a chunk of ``steps`` steps (a multiple of every K) from the same initial state; reps are
+    rebuild_every, 0/1, optionally a density-diffusion name, ``rockjax.sph.names("diffusion")``) a chunk of ``steps`` steps (a multiple of every K) from the same initial state; reps are
     interleaved so the variants see the same machine load. Returns one record with per-spec
     best wall and median CPU ms per step and the rebuild counts."""
     import jax
@@ -176,7 +179,7 @@ def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: fl
     runs = {}
     for spec in specs:
         skin, k, trig, *diff = spec.split(":")
-        kw = {"density_diffusion": rj.DensityDiffusion(diff[0])} if diff else {}
+        kw = {"scheme": rj.sph.from_names("wcsph", diffusion=diff[0])} if diff else {}
         scene = rj.scenes.dam_break(dx=0.5 / nx, skin_factor=float(skin), rebuild_every=int(k), **kw)
         config, params, state0 = scene.config, scene.params, scene.state
         for _ in range(6):  # cure capacity bits the way the driver does
@@ -216,7 +219,7 @@ def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: fl
 
 
 def main(argv=None):
-    from rockjax.types import DensityDiffusion
+    import rockjax as rj
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", nargs="+", default=["5k", "20k", "80k"], choices=list(SIZES))
@@ -228,7 +231,7 @@ def main(argv=None):
     ap.add_argument("--warm-time", type=float, default=0.0, help="simulated seconds to run before timing")
     ap.add_argument("--no-trigger", action="store_true", help="fixed rebuild schedule (no displacement trigger)")
     ap.add_argument("--tag", default="", help="label stored in each record")
-    ap.add_argument("--diffusion", default=None, choices=[d.value for d in DensityDiffusion],
+    ap.add_argument("--diffusion", default=None, choices=rj.sph.names("diffusion"),
                     help="WCSPH density diffusion (scene default if omitted)")
     ap.add_argument("--ab", nargs="+", metavar="SKIN:K:TRIGGER[:DIFFUSION]",
                     help="interleaved in-process A/B of these settings (first size only), e.g. 0.6:8:0 0.3:32:1 "

@@ -105,7 +105,7 @@ def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None,
     dx = 0.5 / nx
     t_window = PEER_STEPS.get(size, 60) * 0.3 * dx / C0  # PySPH / SPlisHSPlasH WCSPH: dt = 0.3 dx / c0
     t0 = time.perf_counter()
-    scene = rj.scenes.dam_break(dx=dx, scheme=rj.Scheme(scheme))
+    scene = rj.scenes.dam_break(dx=dx, scheme=rj.sph.from_names(scheme))
     setup_s = time.perf_counter() - t0
     config, params, state0 = scene.config, scene.params, scene.state
     counts = scene.counts()

@@ -24,8 +24,9 @@ from rockjax.validation import dam_break_2d, dam_break_3d, front_error, front_hi
 def run(scheme: str, res: int, a: float = 0.1, *, h_factor: float = 1.3, three_d: bool = False,
         seed_gradient: str = "spiky"):
     build = dam_break_3d if three_d else dam_break_2d
-    scene = build(a=a, resolution=res, scheme=rj.Scheme(scheme), h_factor=h_factor)
-    scene = scene.replace(config=scene.config.replace(seed_gradient=rj.SeedGradient(seed_gradient)))
+    # seed_gradient: the seed scheme's pressure-gradient kernel (WCSPH has none)
+    fluid_scheme = rj.sph.from_names(scheme, **({"gradient": seed_gradient} if scheme == "seed" else {}))
+    scene = build(a=a, resolution=res, scheme=fluid_scheme, h_factor=h_factor)
     t_end = 3.05 / math.sqrt(2 * 9.81 / a)
     t0 = time.perf_counter()
     result = rj.simulate(scene, t_end=t_end, frame_dt=t_end / 120, progress=False)

@@ -16,8 +16,8 @@ few 1e-3 m g 2a. Three measurements, float64 (float32 creeps the same, see the t
   odd in ``a``, so its even part is a net density source on vertical pairs). The energy change
   over the continuation says which term feeds the creep;
 * ``variants`` (``--variants``, a/dx = 4, from rest to ``--variants-t-end``): the change of
-  2026-11-26 that makes ``DensityDiffusion.FOURTAKAS`` (the hydrostatic difference about each
-  pair's mean density, ``wcsph.hydrostatic_pair_difference``) against the old term
+  2026-11-26 that makes ``sph.diffusion.Fourtakas`` (the hydrostatic difference about each
+  pair's mean density, ``sph.diffusion.hydrostatic_pair_difference``) against the old term
   (``fourtakas_surface``), and what was tried with it: the odd part of the surface series instead,
   and the wet (wall density above rho0) or every Adami wall pair in the diffusion too
   (``wcsph._diffusion_pairs``; not kept: see its docstring).
@@ -54,7 +54,7 @@ def _scene(a_over_dx: int, diffusion: str = "fourtakas"):
     w = 7 * dx
     return rj.scenes.dam_break(dx=dx, column_length=A, column_width=w, column_height=2 * A, tank_length=2 * A,
                                tank_width=w, tank_height=4 * A, periodic_y=True,
-                               density_diffusion=rj.DensityDiffusion(diffusion))
+                               scheme=rj.sph.from_names("wcsph", diffusion=diffusion))
 
 
 def _energy(res, scene):
@@ -85,34 +85,37 @@ def resolution(a_over_dx: int, t_end: float, diffusion: str = "fourtakas") -> di
             "lowest_particle_z_over_dx": [float(z[half].min() / (A / a_over_dx)), float(z[-1].min() / (A / a_over_dx))]}
 
 
-def _odd_surface_series(g_dx, rho_i, rho_j, params, config):
-    from rockjax.sph import wcsph
+def _odd_surface_series(g_dx, rho_i, rho_j, params, gamma):
+    from rockjax.sph import diffusion
 
-    h = wcsph.hydrostatic_density_difference
-    return 0.5 * (h(g_dx, params, config) - h(-g_dx, params, config))
+    h = diffusion.hydrostatic_density_difference
+    return 0.5 * (h(g_dx, params, gamma) - h(-g_dx, params, gamma))
 
 
 def variants(t_end: float) -> list[dict]:
     """``fourtakas`` taken apart (module docstring): one ``resolution``-like run per variant."""
+    from rockjax.sph import diffusion as sph_diffusion
     from rockjax.sph import wcsph
     from rockjax.types import Kind
 
-    saved = (wcsph._diffusion_pairs, wcsph.hydrostatic_pair_difference)
+    # the diffusion terms (rockjax.sph.diffusion) call hydrostatic_pair_difference as a module global there
+    saved = (wcsph._diffusion_pairs, sph_diffusion.hydrostatic_pair_difference)
     cases = [("fourtakas_surface", "fourtakas_surface", {}),
              ("fourtakas", "fourtakas", {}),
-             ("fourtakas, odd surface series", "fourtakas", {"hydrostatic_pair_difference": _odd_surface_series}),
+             ("fourtakas, odd surface series", "fourtakas",
+              {(sph_diffusion, "hydrostatic_pair_difference"): _odd_surface_series}),
              ("fourtakas + wet wall pairs", "fourtakas",
-              {"_diffusion_pairs": lambda k, r, p, c: (k == Kind.FLUID) | (r > p.fluid.rho0)}),
-             ("fourtakas + every wall pair", "fourtakas", {"_diffusion_pairs": lambda k, r, p, c: k != Kind.PAD})]
+              {(wcsph, "_diffusion_pairs"): lambda k, r, p, c: (k == Kind.FLUID) | (r > p.fluid.rho0)}),
+             ("fourtakas + every wall pair", "fourtakas", {(wcsph, "_diffusion_pairs"): lambda k, r, p, c: k != Kind.PAD})]
     out = []
     for name, diffusion, patch in cases:
-        for k, fn in patch.items():
-            setattr(wcsph, k, fn)
+        for (module, k), fn in patch.items():
+            setattr(module, k, fn)
         jax.clear_caches()
         try:
             r = resolution(4, t_end, diffusion)
         finally:
-            wcsph._diffusion_pairs, wcsph.hydrostatic_pair_difference = saved
+            wcsph._diffusion_pairs, sph_diffusion.hydrostatic_pair_difference = saved
         out.append({**r, "case": "variants", "variant": name})
     jax.clear_caches()
     return out
@@ -120,15 +123,16 @@ def variants(t_end: float) -> list[dict]:
 
 def continuation(t_start: float, t_len: float, diffusion: str = "fourtakas_surface") -> list[dict]:
     import rockjax as rj
-    from rockjax.sph import wcsph
+    from rockjax.sph import diffusion as sph_diffusion
 
     scene = _scene(4, diffusion)
     first = rj.simulate(scene, t_end=t_start, frame_dt=0.25, progress=False)
     base = dataclasses.replace(scene, state=first.state)
-    full_h = wcsph.hydrostatic_density_difference
+    # FourtakasSurface (rockjax.sph.diffusion) calls hydrostatic_density_difference as a module global there
+    full_h = sph_diffusion.hydrostatic_density_difference
 
-    def odd_h(g_dx, params, config):
-        return 0.5 * (full_h(g_dx, params, config) - full_h(-g_dx, params, config))
+    def odd_h(g_dx, params, gamma):
+        return 0.5 * (full_h(g_dx, params, gamma) - full_h(-g_dx, params, gamma))
 
     out = []
     variants = [("all terms", {}, False), ("alpha = 0", {"alpha": 0.0}, False), ("delta = 0", {"delta": 0.0}, False),
@@ -137,12 +141,12 @@ def continuation(t_start: float, t_len: float, diffusion: str = "fourtakas_surfa
         f = base.params.fluid
         f = f.replace(**{k: jnp.asarray(v, f.alpha.dtype) for k, v in change.items()})
         sc = dataclasses.replace(base, params=base.params.replace(fluid=f))
-        wcsph.hydrostatic_density_difference = odd_h if odd else full_h
+        sph_diffusion.hydrostatic_density_difference = odd_h if odd else full_h
         jax.clear_caches()
         try:
             res = rj.simulate(sc, t_end=t_len, frame_dt=0.1, progress=False)
         finally:
-            wcsph.hydrostatic_density_difference = full_h
+            sph_diffusion.hydrostatic_density_difference = full_h
         t, e = _energy(res, scene)
         out.append({"case": "continuation", "variant": name, "diffusion": diffusion, "a_over_dx": 4, "t_start": t_start, "t_len": t_len,
                     "dE": float(e["total"][-1] - e["total"][0]), "dE_potential": float(e["potential"][-1] - e["potential"][0]),
@@ -152,14 +156,14 @@ def continuation(t_start: float, t_len: float, diffusion: str = "fourtakas_surfa
 
 
 def main():
-    from rockjax.types import DensityDiffusion
+    import rockjax as rj
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--a-over-dx", type=int, nargs="*", default=[4, 6, 8])
     ap.add_argument("--t-end", type=float, default=16.0)
     ap.add_argument("--t-start", type=float, default=4.0)
     ap.add_argument("--t-len", type=float, default=6.0)
-    ap.add_argument("--diffusion", nargs="*", default=["fourtakas"], choices=[d.value for d in DensityDiffusion],
+    ap.add_argument("--diffusion", nargs="*", default=["fourtakas"], choices=rj.sph.names("diffusion"),
                     help="density diffusion of the resolution runs (each)")
     ap.add_argument("--continuation-diffusion", default="fourtakas_surface", choices=["fourtakas", "fourtakas_surface"])
     ap.add_argument("--variants", action="store_true", help="only the variants case")

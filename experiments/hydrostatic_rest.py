@@ -38,7 +38,7 @@ def run(h_factor: float, diffusion: str, t_end: float) -> dict:
     dx = DEPTH / 20
     L = 8 * dx
     scene = rj.scenes.hydrostatic_tank(dx=dx, length=L, width=L, depth=DEPTH, h_factor=h_factor, periodic_xy=True,
-                                       density_diffusion=rj.DensityDiffusion(diffusion))
+                                       scheme=rj.sph.from_names("wcsph", diffusion=diffusion))
     pts = jnp.asarray([[L / 2, L / 2, DEPTH - d] for d in DEPTHS], scene.state.particles.x.dtype)
     t0 = time.perf_counter()
     res = rj.simulate(scene, t_end=t_end, frame_dt=0.02, progress=False,
@@ -65,11 +65,11 @@ def run(h_factor: float, diffusion: str, t_end: float) -> dict:
 
 
 def main():
-    from rockjax.types import DensityDiffusion
+    import rockjax as rj
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--h-factor", type=float, nargs="*", default=[1.3, 1.5])
-    ap.add_argument("--diffusion", nargs="*", default=["fourtakas"], choices=[d.value for d in DensityDiffusion])
+    ap.add_argument("--diffusion", nargs="*", default=["fourtakas"], choices=rj.sph.names("diffusion"))
     ap.add_argument("--t-end", type=float, default=1.6)
     ap.add_argument("--out", default=None)
     a = ap.parse_args()

@@ -746,7 +746,7 @@ def sec_energy_creep(doc: Doc):
           "`fourtakas`), pulls pair differences to hydrostatic ones taken from the surface's density, a series "
           "whose even part is a net density source, and lifts the column for as long as it runs (the creep); "
           "`fourtakas` (the default since 2026-11-26) takes them about each pair's mean density (odd in the pair): "
-          "the energy levels off; Antuono et al. (2010)'s consistent term (`DensityDiffusion.ANTUONO`) leaves any "
+          "the energy levels off; Antuono et al. (2010)'s consistent term (`sph.diffusion.Antuono`) leaves any "
           "linear profile alone.")
 
     def label(r):
@@ -783,9 +783,9 @@ def sec_seed_rest(doc: Doc):
     if recs is None:
         return
     doc.p("`experiments/seed_rest.py`: the stress long run's column (a = 0.08 m, a/dx = 4, periodic slab), "
-          "`Scheme.SEED`, float32. Energies in m g 2a: `rebound` = max_t E(t) - min_{s<=t} E(s) (stress bound 3e-3), "
+          "`SeedScheme`, float32. Energies in m g 2a: `rebound` = max_t E(t) - min_{s<=t} E(s) (stress bound 3e-3), "
           "`late` = |E(end) - E(mid)| (bound 1e-3). `gradient`: the kernel of the pressure gradient "
-          "(`Config.seed_gradient`: `spiky`, the paper's; `poly6`, the density sum's); `form`: `paper`, Mueller et "
+          "(`SeedScheme(gradient=...)`: `spiky`, the paper's; `poly6`, the density sum's); `form`: `paper`, Mueller et "
           "al.'s (p_i + p_j) / (2 rho_i rho_j) as `sph.seed.forces`, or `variational`, p_i / rho_i^2 + p_j / rho_j^2 "
           "(swapped in by the script for the A/B).")
     rows = [[r["gradient"], r["form"], r["steps"], r["t_end"], r["rebound"], r["late"], r["kinetic_2s"],

@@ -43,7 +43,8 @@ def simulate(dx: float, coupling: str, t_end: float, npz: str, *, alpha=None, wa
                                        beach_slope=0.3, flume_width=(7 if h_factor <= 1.3 else 8) * dx,
                                        coupling=rj.Coupling(coupling),
                                        gauge_x=GAUGES, h_factor=h_factor)
-    scene = scene.replace(config=scene.config.replace(density_diffusion=rj.DensityDiffusion(diffusion)))
+    scheme = scene.config.scheme.replace(diffusion=rj.sph.by_name("diffusion", diffusion))
+    scene = scene.replace(config=scene.config.replace(scheme=scheme))
     fl = scene.params.fluid
     fl = fl.replace(alpha=fl.alpha if alpha is None else jnp.asarray(alpha, fl.alpha.dtype),
                     wall_viscosity=fl.wall_viscosity if wall_viscosity is None
@@ -99,7 +100,7 @@ def analyse(npz: str, delays=(0, 1, 2)) -> dict:
 
 
 def main():
-    from rockjax.types import DensityDiffusion
+    import rockjax as rj
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--dx", type=float, default=0.03)
@@ -110,7 +111,7 @@ def main():
                     help="viscous factor towards walls/blocks (default: the scene's; 0 = free slip)")
     ap.add_argument("--h-factor", type=float, default=1.5, help="smoothing length / dx (the scene's default)")
     ap.add_argument("--stroke", type=float, default=STROKE, help="paddle stroke m")
-    ap.add_argument("--diffusion", default="fourtakas", choices=[d.value for d in DensityDiffusion])
+    ap.add_argument("--diffusion", default="fourtakas", choices=rj.sph.names("diffusion"))
     ap.add_argument("--out", default=None, help="JSON-lines file the record is appended to "
                                                 "(default results/piston_decay.jsonl)")
     ap.add_argument("--from-npz", default=None, help="analyse a saved run instead of simulating")

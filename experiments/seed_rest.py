@@ -1,8 +1,8 @@
 """Does the seed scheme's water come to rest? Energy of the stress suite's collapsed column per
-pressure-gradient kernel (``Config.seed_gradient``) and pressure-force form: JSON lines.
+pressure-gradient kernel (``SeedScheme(gradient=...)``) and pressure-force form: JSON lines.
 
 The scene of ``tests/stress/test_long_run.py`` (a water column a x 2a, a = 0.08 m, dx = a / 4,
-collapsing in a closed tank 2a long as a periodic slab 7 dx wide), ``Scheme.SEED``, float32, run for
+collapsing in a closed tank 2a long as a periodic slab 7 dx wide), ``SeedScheme``, float32, run for
 ``--steps`` steps; energies (``validation.energy_history``) in m g 2a, as that test's bounds:
 ``rebound`` = max_t (E(t) - min_{s<=t} E(s)) (bound 3e-3), ``late`` = |E(end) - E(mid)| (bound
 1e-3), ``kinetic_end``, and the mean |rho / rho0 - 1| at the end.
@@ -56,13 +56,14 @@ def _forget_compiled():
 
 
 def column(gradient: str):
-    """The stress long run's seed scene with ``Config.seed_gradient = gradient``."""
+    """The stress long run's seed scene with ``SeedScheme(gradient=gradient)`` (a name: spiky, poly6)."""
     import rockjax as rj
 
     w = 7 * DX
     scene = rj.scenes.dam_break(dx=DX, column_length=A, column_width=w, column_height=2 * A, tank_length=2 * A,
-                                tank_width=w, tank_height=4 * A, periodic_y=True, scheme=rj.Scheme.SEED)
-    return scene.replace(config=scene.config.replace(seed_gradient=rj.SeedGradient(gradient)))
+                                tank_width=w, tank_height=4 * A, periodic_y=True,
+                                scheme=rj.sph.from_names("seed", gradient=gradient))
+    return scene
 
 
 def rest(gradient: str, form: str, steps: int) -> dict:
@@ -115,8 +116,8 @@ def hydrostatic(gradient: str, *, dx: float = 0.02, depth: float = 0.3, t_end: f
     still tank (``scenes.hydrostatic_tank``, 0.2 x 0.2 m), averaged over frames from 1 s to ``t_end``."""
     import rockjax as rj
 
-    sc = rj.scenes.hydrostatic_tank(dx=dx, length=0.2, width=0.2, depth=depth, scheme=rj.Scheme.SEED)
-    sc = sc.replace(config=sc.config.replace(seed_gradient=rj.SeedGradient(gradient)))
+    sc = rj.scenes.hydrostatic_tank(dx=dx, length=0.2, width=0.2, depth=depth,
+                                    scheme=rj.sph.from_names("seed", gradient=gradient))
     res = rj.simulate(sc, t_end=t_end, frame_dt=0.1, progress=False)
     fl = res.frames["kind"][0] == rj.Kind.FLUID
     late = res.times >= 1.0

@@ -40,7 +40,7 @@ def run(scheme: str, res: int) -> dict:
     import rockjax as rj
     from rockjax.validation import dam_break_2d, front_error, front_history, martin_moyce_n2_2
 
-    scene = dam_break_2d(a=A, resolution=res, scheme=rj.Scheme(scheme))
+    scene = dam_break_2d(a=A, resolution=res, scheme=rj.sph.from_names(scheme))
     t_end = 3.05 / math.sqrt(2 * 9.81 / A)
     load0 = os.getloadavg()[0]
     w0 = time.perf_counter()

@@ -32,14 +32,14 @@ def bands(*, box, tank, dx: float, t_end: float, h_factor: float, depth: float =
 
     import rockjax as rj
     from rockjax.rollout import scheduled_step
-    from rockjax.sph.kernels import KernelKind, plane_integrals, wendland_c2_f
+    from rockjax.sph.kernels import WendlandC2, plane_integrals, wendland_c2_f
 
     sc, config, params = held_box("boundary_integral", box=box, tank=tank, dx=dx, h_factor=h_factor, depth=depth,
                                   draft=draft)
-    if config.kernel != KernelKind.WENDLAND_C2:
+    if config.scheme.kernel != WendlandC2():
         raise ValueError("wall_consistency: written for the Wendland C2 kernel")
     h, rho0, nf = float(params.fluid.h), float(params.fluid.rho0), config.n_fluid
-    plane = plane_integrals(config.kernel)
+    plane = plane_integrals(config.scheme.kernel)
     step = jax.jit(scheduled_step(config, period=32))
 
     def analyse(s):
