@@ -60,10 +60,11 @@ def load(P: Particles, nbrs: NeighbourList, blocks, params: Params, config: Conf
                                   config)
     body_j = P.body[pr.idx]
     extra = wcsph.momentum_extra(P.x, P.v, P.rho, P.vol, P.kind, nbrs, params, config)
+    v_m = wcsph.viscous_velocity(P.x, P.v, P.kind, nbrs, params, config)
     acc = []
     for b in bodies:
         only_b = pr._replace(mask=pr.mask & (body_j == b))
-        acc.append(wcsph.acceleration(only_b, P.v, P.rho, P.p, P.vol, P.kind, params, config, extra=extra)[:nf]
+        acc.append(wcsph.acceleration(only_b, v_m, P.rho, P.p, P.vol, P.kind, params, config, extra=extra)[:nf]
                    - params.gravity)
     return from_accelerations(P, jnp.stack(acc, axis=1), bodies, blocks, params, config)
 

@@ -184,6 +184,9 @@ class SeedScheme(FluidScheme):
     def __post_init__(self):
         _check_type("SeedScheme", "gradient", self.gradient, SeedGradientKernel)
         _check_type("SeedScheme", "walls", self.walls, WallModel)
+        if self.walls.mirrors_velocity:
+            raise ValueError(f"SeedScheme: walls={self.walls!r} mirror the wall velocity for WCSPH's viscous terms; "
+                             "the seed scheme's viscosity does not use it: use walls=Adami()")
 
     @property
     def uses_nu(self) -> bool:

@@ -316,6 +316,15 @@ def _momentum_values(v, rho, p, vol, extra=None):
     return rows, dict(rows, vol=vol)
 
 
+def viscous_velocity(x, v, kind, nbrs, params: Params, config: Config):
+    """Velocities [N, 3] m/s the momentum pass uses (``v``, or with walls that mirror it, e.g.
+    ``Adami(no_slip=True)``, the walls' mirrored velocities: ``sph.walls``)."""
+    walls = config.scheme.walls
+    if not (config.n_wall and walls.mirrors_velocity):
+        return v
+    return walls.viscous_velocity(v, kind, wall_pair_geometry(x, nbrs, config.grid), params, config)
+
+
 def momentum_extra(x, v, rho, vol, kind, nbrs, params: Params, config: Config) -> dict:
     """The viscous term's own per-particle fields for a momentum pass at these positions, velocities
     and densities (``sph.viscosity.Viscosity.values``; empty for most terms)."""
@@ -385,7 +394,8 @@ def prime(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -> 
     p, rho = pressure(pr, P.rho, P.kind, params, config, terms=t)
     drho_dt = density_rate(pr, P.v, rho, P.vol, P.kind, params, config, terms=t)
     extra = momentum_extra(P.x, P.v, rho, P.vol, P.kind, nbrs, params, config)
-    a = acceleration(pr, P.v, rho, p, P.vol, P.kind, params, config, terms=t, extra=extra)
+    v_m = viscous_velocity(P.x, P.v, P.kind, nbrs, params, config)
+    a = acceleration(pr, v_m, rho, p, P.vol, P.kind, params, config, terms=t, extra=extra)
     P = P.replace(a=a, drho_dt=drho_dt, p=p, rho=rho)
     if _antuono(config):
         P = P.replace(grad_rho=density_gradient(pr, rho, P.vol, P.kind, params, config, terms=t))
@@ -471,8 +481,11 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     antuono = _antuono(config)
 
     extra = momentum_extra(x_new, v_half, rho_new, P.vol, kind, nbrs, params, config)
+    v_m = v_half
+    if nw and config.scheme.walls.mirrors_velocity:
+        v_m = config.scheme.walls.viscous_velocity(v_half, kind, wp, params, config)
     m_sums = pair_sum(_momentum_gradient_pair if antuono else _momentum_pair, x_new,
-                      *_momentum_values(v_half, rho_new, p, P.vol, extra), params, nbrs, kind, config)
+                      *_momentum_values(v_m, rho_new, p, P.vol, extra), params, nbrs, kind, config)
     out = _momentum_finish(m_sums, fluid_rows, params, antuono)
     out = out if isinstance(out, tuple) else (out,)
     a_f = out[0]
@@ -486,4 +499,4 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     bp = wall_pair_geometry(x_new, nbrs, config.grid, bodies=True) if config.has_body_pairs else wp
     body_j = take(P.body, bp.col)
     on = bp.valid & (take(kind, bp.row) == Kind.FLUID) & jnp.isin(body_j, jnp.asarray(bodies, body_j.dtype))
-    return P, (bp.row, bp.col, wall_pair_forces(bp, on, v_half, rho_new, p, P.vol, params, config, extra))
+    return P, (bp.row, bp.col, wall_pair_forces(bp, on, v_m, rho_new, p, P.vol, params, config, extra))
