@@ -102,8 +102,9 @@ def fingerprint(scene):
         return jnp.sum(s.particles.x[:, 2]) if s.particles is not None else jnp.sum(s.blocks.x)
 
     j_grad = jax.make_jaxpr(jax.grad(loss))(params)
+    j_prime = jax.make_jaxpr(lambda s, p: rj.prime(s, p, cfg))(state, params)
     out = {}
-    for key, j in (("step", j_step), ("grad", j_grad)):
+    for key, j in (("step", j_step), ("grad", j_grad), ("prime", j_prime)):
         t = _text(j)
         out[key] = hashlib.sha256(t.encode()).hexdigest()[:16]
         out[key + "_eqns"] = t.count("\n")
@@ -125,7 +126,7 @@ def main(argv=None):
                 print(f"{k}: missing in {args.compare[1]}")
                 bad += 1
                 continue
-            for key in ("step", "grad"):
+            for key in ("step", "grad", "prime"):
                 same = a[k][key] == b[k][key]
                 bad += not same
                 print(f"{k:16s} {key:5s} {'same' if same else 'DIFFERENT'} ({a[k][key + '_eqns']} / {b[k][key + '_eqns']} lines)")

@@ -110,7 +110,7 @@ def describe(scene, t_end: float) -> dict:
             "dt_s": float(f"{c.dt:.4g}"), "steps": int(round(t_end / c.dt)),
             "stages": ",".join(s for s, on in (("sph-" + c.scheme.name, c.n_fluid > 0), ("blocks", n_blocks > 0),
                                              ("joint-water", n_blocks > 0 and c.blocks.joint_water),
-                                             ("coupling-" + c.coupling.value, c.coupling.value != "none")) if on),
+                                             ("coupling-" + c.coupling_method.name, c.coupling_method.name != "none")) if on),
             "memory_MB_est": round(4 * bytes_est / 2**20, 1)}
 
 

@@ -8,16 +8,11 @@ is never traced):
   steps) -- only when the scene has particles;
 * blocks (``config.blocks``): contacts and one central-difference step of the rock blocks
   (``rockjax.blocks``), with the fluid loads of the previous step as external forces;
-* boundary particles (``Coupling.BOUNDARY_PARTICLES``): particles carried by blocks are placed at
-  the new block poses before the fluid sees them;
-* fluid (``config.n_fluid > 0``): ``config.scheme`` (``sph.schemes``: ``WCSPH`` or ``SeedScheme``);
-* coupling: ``Coupling.PENALTY``, seed Eq 22 on the fluid at the end of the step, the reaction
-  stored for the blocks' next step (``coupling.penalty``); ``Coupling.BOUNDARY_PARTICLES``, the
-  loads of the block particles from the WCSPH momentum pass's pair terms, over the list's short
-  sub-list of (fluid, block particle) pairs (``NeighbourList.body_row``; ``coupling.boundary_particles``),
-  plus, with ``config.coupling_guard``, the penalty within dx/4 of a face as a guard against
-  water pressed into a block between its particles (and, with ``config.guard_fixed``, into a fixed
-  block between the walls' particles);
+* the coupling method (``config.coupling_method``, ``coupling.base``): ``place`` puts what the
+  blocks carry for the fluid at their new poses (boundary particles), ``fluid_step`` advances the
+  fluid (``config.scheme``, ``sph.schemes``) and exchanges momentum with the blocks (the penalty of
+  seed Eq 22, the boundary particles' pair forces, the wall term), storing the loads for the
+  blocks' next step; with no coupling, the scheme's step alone;
 * checks: non-finite values, particles off the grid, stale neighbour list, time step beyond the
   stability limit; each sets a ``Status`` bit for the host driver.
 
@@ -36,7 +31,7 @@ import jax.numpy as jnp
 
 from .sph.neighbours import rebuild
 from .sph.kernels import SUPPORT_FACTOR
-from .types import Config, Coupling, Kind, Params, State, Status
+from .types import Config, Kind, Params, State, Status
 
 __all__ = ["make_step", "refresh", "advance", "prime", "check"]
 
@@ -104,88 +99,15 @@ def _advance_blocks(state: State, params: Params, config: Config) -> State:
     return state.replace(blocks=B, status=state.status | status)
 
 
-def _place_block_particles(state: State, config: Config) -> State:
-    """Move the particles carried by blocks to the blocks' poses (boundary-particle coupling)."""
-    if config.coupling != Coupling.BOUNDARY_PARTICLES:
-        return state
-    from .coupling import boundary_particles
-
-    return state.replace(particles=boundary_particles.place(state.particles, state.blocks, config))
-
-
-def _fluid_load(state: State, params: Params, config: Config, *, kick: bool) -> State:
-    """The fluid's load on the blocks for the current particles; with ``kick`` the penalty
-    coupling also kicks the fluid by dt times its acceleration (in a step, not at priming)."""
-    if config.coupling == Coupling.BOUNDARY_PARTICLES:
-        from .coupling import boundary_particles
-
-        state = state.replace(coupling=boundary_particles.load(state.particles, state.nbrs, state.blocks, params,
-                                                               config))
-        return _guard(state, params, config, kick=kick)
-    if config.coupling in (Coupling.PENALTY, Coupling.BOUNDARY_INTEGRAL):  # the wall term: penalty.accelerations
-        from .coupling import penalty
-
-        if kick:
-            P, load = penalty.apply(state.particles, state.blocks, params, config)
-            return state.replace(particles=P, coupling=load)
-        return state.replace(coupling=penalty.load(state.particles, state.blocks, params, config))
-    return state
-
-
-def _guard(state: State, params: Params, config: Config, *, kick: bool) -> State:
-    """Boundary particles with ``config.coupling_guard``: the seed Eq 22 penalty on the fluid within
-    ``params.coupling.interaction_distance`` of a block face (dx/4 by default, where no particle
-    sits at rest: the first layer stays ~dx/2 from the face), so that water pressed between a
-    block's particles cannot enter it; the equal and opposite reaction is added to the loads.
-    With ``kick`` the fluid is kicked by dt times it (in a step), else only the load is added;
-    with ``config.guard_fixed`` the FIXED blocks' faces too (``penalty.guard_fixed``: a kick, no load)."""
-    if config.coupling != Coupling.BOUNDARY_PARTICLES or not config.coupling_guard:
-        return state
-    from .coupling import penalty
-
-    if kick:
-        P, g = penalty.apply(state.particles, state.blocks, params, config)
-        if config.guard_fixed:
-            P = penalty.guard_fixed(P, state.blocks, params, config)
-    else:
-        P, g = state.particles, penalty.load(state.particles, state.blocks, params, config)
-    c = state.coupling
-    return state.replace(particles=P, coupling=c.replace(force=c.force + g.force, torque=c.torque + g.torque))
-
-
-def _load_bodies(config: Config) -> tuple[int, ...]:
-    """Blocks whose boundary-particle loads a step takes from its own force pass (else ())."""
-    if config.coupling != Coupling.BOUNDARY_PARTICLES:
-        return ()
-    from .coupling.penalty import coupled_blocks
-
-    return coupled_blocks(config)
-
-
 def advance(state: State, params: Params, config: Config) -> State:
-    """One time step with the current neighbour list (no rebuild)."""
+    """One time step with the current neighbour list (no rebuild): blocks, then the coupling
+    method's ``place`` and ``fluid_step`` (``coupling.base``), then the checks."""
+    coupling = config.coupling_method
     if config.has_blocks:
         state = _advance_blocks(state, params, config)
-    state = _place_block_particles(state, config)
+    state = coupling.place(state, params, config)
     if config.n_fluid > 0:
-        bodies = _load_bodies(config)
-        if bodies:
-            # the loads come out of the momentum pass (the reaction of exactly what the fluid gets)
-            from .coupling import boundary_particles
-            from .sph.schemes import SeedScheme
-
-            if not isinstance(config.scheme, SeedScheme):
-                P, pair_forces = config.scheme.advance(state.particles, state.nbrs, params, config, bodies=bodies)
-                load = boundary_particles.from_pair_forces(P, pair_forces, bodies, state.blocks)
-            else:  # the seed scheme's forces at the start of the step (symplectic Euler), per block
-                P, acc_bodies = config.scheme.advance(state.particles, state.nbrs, params, config, bodies=bodies)
-                # lever arms from the positions the forces acted at (before the drift)
-                load = boundary_particles.from_accelerations(state.particles, acc_bodies, bodies, state.blocks, params,
-                                                             config)
-            state = _guard(state.replace(particles=P, coupling=load), params, config, kick=True)
-        else:
-            P = config.scheme.advance(state.particles, state.nbrs, params, config)
-            state = _fluid_load(state.replace(particles=P), params, config, kick=True)
+        state = coupling.fluid_step(state, params, config)
     state = state.replace(step=state.step + 1)
     return state.replace(status=state.status | check(state, params, config))
 
@@ -197,10 +119,10 @@ def prime(state: State, params: Params, config: Config) -> State:
 
     Compiled once per static ``config`` (``jax.jit``; inside another trace it is inlined): op by op
     it took ~30 s on 2 CPU cores for a small coupled scene."""
-    state = refresh(_place_block_particles(state, config), config)
+    coupling = config.coupling_method
+    state = refresh(coupling.place(state, params, config), config)
     if config.n_fluid > 0:
-        P = config.scheme.prime(state.particles, state.nbrs, params, config)
-        state = _fluid_load(state.replace(particles=P), params, config, kick=False)
+        state = coupling.prime(state, params, config)
     return state
 
 

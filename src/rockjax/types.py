@@ -254,8 +254,10 @@ class Config:
             (``jax.jvp``) through a step needs ``AUTODIFF``.
         cfl: Courant number used for the host time step and the in-jit stability check.
         blocks: the static block description (``rockjax.blocks.BlockConfig``), or None for no blocks.
-        coupling: how water and blocks exchange forces (``Coupling``); NONE when either is absent;
-            ``BOUNDARY_INTEGRAL`` needs the WCSPH scheme.
+        coupling: how water and blocks exchange forces: a ``Coupling`` name (NONE when either is
+            absent; ``BOUNDARY_INTEGRAL`` needs the WCSPH scheme) or a coupling method object
+            (``rockjax.coupling``: ``Penalty()``, ``BoundaryParticles(guard=..., guard_fixed=...)``,
+            ``BoundaryIntegral()``, or a new one); ``coupling_method`` is the object.
         coupling_guard: with ``Coupling.BOUNDARY_PARTICLES``, also apply the seed Eq 22 penalty
             (``coupling.penalty``, within ``CouplingParams.interaction_distance`` of a face, dx/4 by
             default) so that no water particle is pressed between a block's particles into it; the
@@ -290,7 +292,7 @@ class Config:
     gather: Optional[GatherForm] = None
     cfl: float = 0.25
     blocks: Optional[Any] = None
-    coupling: Coupling = Coupling.NONE
+    coupling: Any = Coupling.NONE
     coupling_guard: bool = True
     guard_fixed: bool = False
 
@@ -302,14 +304,20 @@ class Config:
             raise ValueError("Config: a scene needs particles (n_fluid + n_wall >= 1) or blocks (Config.blocks)")
         if not (self.dt > 0 and math.isfinite(self.dt)):
             raise ValueError(f"Config.dt must be a positive finite time step in seconds (got {self.dt})")
-        if self.coupling != Coupling.NONE and (self.blocks is None or self.n_fluid == 0):
+        from .coupling.base import CouplingMethod, NoCoupling
+
+        if not isinstance(self.coupling, (Coupling, CouplingMethod)):
+            raise ValueError(f"Config.coupling must be a Coupling name or a coupling method object (rockjax.coupling), "
+                             f"got {self.coupling!r}")
+        method = self.coupling_method
+        if not isinstance(method, NoCoupling) and (self.blocks is None or self.n_fluid == 0):
             raise ValueError("Config.coupling needs both water (n_fluid > 0) and blocks; set Coupling.NONE")
         from .sph.schemes import FluidScheme
 
         if not isinstance(self.scheme, FluidScheme):
             raise ValueError(f"Config.scheme must be a fluid scheme object (rockjax.WCSPH(...) or rockjax.SeedScheme(...)), "
                              f"got {self.scheme!r}")
-        if self.coupling == Coupling.BOUNDARY_INTEGRAL and not self.scheme.continuity:
+        if method.needs_continuity and not self.scheme.continuity:
             raise ValueError("Config.coupling BOUNDARY_INTEGRAL needs scheme WCSPH (a scheme with the continuity "
                              "equation, for which its wall term is written); use PENALTY or BOUNDARY_PARTICLES")
         if not self.has_particles:
@@ -346,7 +354,15 @@ class Config:
     def has_body_pairs(self) -> bool:
         """Whether list builds fill the (fluid, block particle) sub-list (``NeighbourList.body_row``)
         and a step sums the blocks' loads over it."""
-        return self.body_pair_capacity > 0 and self.coupling == Coupling.BOUNDARY_PARTICLES
+        return self.body_pair_capacity > 0 and self.coupling_method.body_pairs
+
+    @property
+    def coupling_method(self):
+        """The coupling method object (``coupling.base.method``): ``coupling`` itself if it is one,
+        else the method its name stands for, with ``coupling_guard`` and ``guard_fixed``."""
+        from .coupling.base import method
+
+        return method(self)
 
     @property
     def has_particles(self) -> bool:

@@ -231,7 +231,7 @@ def test_seed_scheme_boundary_particle_load_is_the_reaction():
     seed forces with all pairs minus those with the block's pairs removed (an independent sum)."""
     from rockjax.sph import seed
     from rockjax.sph.neighbours import pairs
-    from rockjax.step import _advance_blocks, _place_block_particles
+    from rockjax.step import _advance_blocks
 
     scene, _ = _submerged(Coupling.BOUNDARY_PARTICLES)
     config = scene.config.replace(scheme=rj.SeedScheme(), coupling_guard=False)
@@ -255,7 +255,7 @@ def test_seed_scheme_boundary_particle_load_is_the_reaction():
     np.testing.assert_allclose(np.asarray(state.coupling.force[0]), np.asarray(F), rtol=0, atol=1e-5 * scale)
     np.testing.assert_allclose(np.asarray(state.coupling.torque[0]), np.asarray(T), rtol=0, atol=1e-5 * scale * 0.2)
     new = advance(state, params, config)
-    placed = jax.jit(lambda s: _place_block_particles(_advance_blocks(s, params, config), config))(state)
+    placed = jax.jit(lambda s: config.coupling_method.place(_advance_blocks(s, params, config), params, config))(state)
     F, T, scale = reaction(placed.particles, placed.nbrs, placed.blocks)
     scale = float(scale)
     np.testing.assert_allclose(np.asarray(new.coupling.force[0]), np.asarray(F), rtol=0, atol=1e-5 * scale)

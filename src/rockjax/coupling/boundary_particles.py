@@ -16,15 +16,74 @@ neglected in the wall pressure, an O(a_block / g) error while the block accelera
 
 from __future__ import annotations
 
+import dataclasses
+
 import jax.numpy as jnp
 
 from ..sph import seed, wcsph
 from ..sph.neighbours import pairs, take
 from ..types import Config, CouplingState, Kind, NeighbourList, Params, Particles
 from ..blocks.rotation import quat_matrix
+from . import penalty
+from .base import CouplingMethod
 from .penalty import coupled_blocks
 
-__all__ = ["place", "load", "from_accelerations", "from_pair_forces"]
+__all__ = ["BoundaryParticles", "place", "load", "from_accelerations", "from_pair_forces"]
+
+
+@dataclasses.dataclass(frozen=True)
+class BoundaryParticles(CouplingMethod):
+    """Particles carried by the moving blocks take part in the SPH sums (``Coupling.BOUNDARY_PARTICLES``;
+    module docstring); the loads come out of the scheme's own momentum pass over the list's
+    (fluid, block particle) pairs, so the exchange is the reaction of exactly what the fluid gets.
+
+    ``guard``: also the seed Eq 22 penalty within ``CouplingParams.interaction_distance`` of a face
+    (dx/4 by default, where no particle sits at rest: the first layer stays ~dx/2 from the face), so
+    that no water pressed between a block's particles enters it; the reaction is added to the loads
+    (``Config.coupling_guard``). ``guard_fixed``: guard the FIXED blocks' faces too, which the water
+    meets as wall particles (``penalty.guard_fixed``: a kick, no load; ``Config.guard_fixed``).
+    """
+
+    name = "boundary_particles"
+    body_pairs = True
+    guard: bool = True
+    guard_fixed: bool = False
+
+    def place(self, state, params, config):
+        return state.replace(particles=place(state.particles, state.blocks, config))
+
+    def exchange(self, state, params, config, *, kick: bool):
+        loads = load(state.particles, state.nbrs, state.blocks, params, config)
+        return self._guarded(state.replace(coupling=loads), params, config, kick=kick)
+
+    def fluid_step(self, state, params, config):
+        from ..sph.schemes import SeedScheme
+
+        bodies = coupled_blocks(config)
+        if not bodies:
+            return super().fluid_step(state, params, config)
+        # the loads come out of the momentum pass (the reaction of exactly what the fluid gets)
+        P, out = config.scheme.advance(state.particles, state.nbrs, params, config, bodies=bodies)
+        if isinstance(config.scheme, SeedScheme):  # its forces at the start of the step (symplectic
+            # Euler), per block, with the lever arms from the positions they acted at (before the drift)
+            loads = from_accelerations(state.particles, out, bodies, state.blocks, params, config)
+        else:  # WCSPH: the momentum pass's pair forces on the (fluid, block particle) pairs
+            loads = from_pair_forces(P, out, bodies, state.blocks)
+        return self._guarded(state.replace(particles=P, coupling=loads), params, config, kick=True)
+
+    def _guarded(self, state, params, config, *, kick: bool):
+        """With ``guard``: the penalty within dx/4 of a face added to the loads; with ``kick`` the
+        fluid is kicked by dt times it (in a step), else only the load is added (at priming)."""
+        if not self.guard:
+            return state
+        if kick:
+            P, g = penalty.apply(state.particles, state.blocks, params, config)
+            if self.guard_fixed:
+                P = penalty.guard_fixed(P, state.blocks, params, config)
+        else:
+            P, g = state.particles, penalty.load(state.particles, state.blocks, params, config)
+        c = state.coupling
+        return state.replace(particles=P, coupling=c.replace(force=c.force + g.force, torque=c.torque + g.torque))
 
 
 def place(P: Particles, blocks, config: Config) -> Particles:

@@ -28,13 +28,43 @@ and ``Config.guard_fixed``, ``guard_fixed`` also keeps it out of fixed blocks, w
 
 from __future__ import annotations
 
+import dataclasses
+
 import jax.numpy as jnp
 
 from ..blocks.rotation import quat_matrix, tied_max
 from ..sph.kernels import plane_integrals
-from ..types import Config, Coupling, CouplingState, Kind, Params, Particles
+from ..types import Config, CouplingState, Kind, Params, Particles
+from .base import CouplingMethod
 
-__all__ = ["accelerations", "apply", "load", "coupled_blocks", "fixed_blocks", "guard_fixed", "wall_terms"]
+__all__ = ["Penalty", "BoundaryIntegral", "accelerations", "apply", "load", "coupled_blocks", "fixed_blocks",
+           "guard_fixed", "wall_terms"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Penalty(CouplingMethod):
+    """The seed's coupling (``Coupling.PENALTY``, seed Eq 22; module docstring): after the fluid's
+    step the fluid within ``CouplingParams.interaction_distance`` of a moving block is kicked by
+    the penalty force, and the block takes the reaction in its next step."""
+
+    name = "penalty"
+
+    def exchange(self, state, params, config, *, kick: bool):
+        if kick:
+            P, loads = apply(state.particles, state.blocks, params, config)
+            return state.replace(particles=P, coupling=loads)
+        return state.replace(coupling=load(state.particles, state.blocks, params, config))
+
+
+@dataclasses.dataclass(frozen=True)
+class BoundaryIntegral(Penalty):
+    """The semi-analytical wall term for block faces (``Coupling.BOUNDARY_INTEGRAL``, experimental;
+    ``wall_terms``) with the penalty as a guard within dx/4: WCSPH only (it is written for the
+    continuity equation). It does not converge for bodies in still water (RESULTS.md, "held box")."""
+
+    name = "boundary_integral"
+    wall_term = True
+    needs_continuity = True
 
 
 def _is_fixed(motion) -> bool:
@@ -92,7 +122,7 @@ def _exchange(P: Particles, blocks, params: Params, config: Config):
     R_all = quat_matrix(blocks.q[jnp.asarray(idx, jnp.int32)])  # [Bc, 3, 3]
     n_faces = blocks.shape.face_normal.shape[1]
     acc, lever = [], []
-    drho = jnp.zeros((nf,), x.dtype) if config.coupling == Coupling.BOUNDARY_INTEGRAL else None
+    drho = jnp.zeros((nf,), x.dtype) if config.coupling_method.wall_term else None
     for k, b in enumerate(idx):
         r = _min_image(x - blocks.x[b], config)  # [nf, 3]
         normals = blocks.shape.face_normal[b] @ R_all[k].T  # [F, 3] world frame
