@@ -15,7 +15,7 @@ number of steps, and ensemble throughput. JSON lines on stdout.
    CPU default).
 
 3. ``--adjoint-ab``: the checkpointed gradient of ``--base-steps`` steps under each
-   ``Config.adjoint`` (``AUTODIFF``: JAX transposes the neighbour gathers; ``PAIR_SUMS``: the
+   ``Tuning.adjoint`` (``AUTODIFF``: JAX transposes the neighbour gathers; ``PAIR_SUMS``: the
    gather-only custom VJP of ``rockjax.sph.pair_sum``, with the hand-derived pullbacks of
    ``rockjax.sph.pullbacks`` and with JAX's VJP of each pair function), each with the forward in
    one block (``row_tile`` 0) and in blocks of 512 rows (``--ab-tiles``), compiled in one process
@@ -23,7 +23,7 @@ number of steps, and ensemble throughput. JSON lines on stdout.
 4. ``--levels-ab 1 2``: the same for the rollout's ``checkpoint_levels`` (chunks only, or chunks
    and steps), with the scene's adjoint, and the compiled gradient's XLA temporary bytes; under
    ``PAIR_SUMS`` levels >= 2 with and without the steps saving the pair sums' outputs
-   (``rockjax.rollout.saved_pair_sums``).
+   (``Tuning.save_pair_sums``).
 
 Scenes (``--scene``): ``dam`` (default: a 0.3 x 0.3 x 0.5 m dam break at dx = 0.05 m, fluid
 only; ``--dx 0.025``: 2 880 fluid), ``incline`` (blocks only), ``wedge`` (coupled, dx = 0.05 m).
@@ -165,14 +165,12 @@ def adjoint_ab(scene, steps: int, repeats: int, tiles=(0, 512)) -> list[dict]:
     from rockjax import prime
     from rockjax.calibrate import observed
 
-    from rockjax.sph.pair_sum import hand_pullbacks
-
     obj = objective(scene)
     variants = [(a, t, hand) for t in tiles for a in Adjoint for hand in ((True, False) if a == Adjoint.PAIR_SUMS
                                                                             else (False,))]
     fns = {}
     for adjoint, tile, hand in variants:
-        config = scene.config.replace(adjoint=adjoint, row_tile=tile)
+        config = scene.config.tuned(adjoint=adjoint, row_tile=tile, hand_pullbacks=hand)
         state0 = jax.jit(prime, static_argnums=2)(scene.state, scene.params, config)
 
         def fwd(p, config=config, state0=state0):
@@ -181,9 +179,8 @@ def adjoint_ab(scene, steps: int, repeats: int, tiles=(0, 512)) -> list[dict]:
         def loss(p, config=config, state0=state0):
             return obj(observed(config, p, steps, None, state=state0, checkpoint=True, prime=False)[0], p)
 
-        with hand_pullbacks(hand):
-            fns[adjoint, tile, hand, "forward"] = jax.jit(fwd).lower(scene.params).compile()
-            fns[adjoint, tile, hand, "grad"] = jax.jit(jax.grad(loss)).lower(scene.params).compile()
+        fns[adjoint, tile, hand, "forward"] = jax.jit(fwd).lower(scene.params).compile()
+        fns[adjoint, tile, hand, "grad"] = jax.jit(jax.grad(loss)).lower(scene.params).compile()
     times = alternated(fns, scene.params, repeats=repeats)
     best_fwd = min(times[v + ("forward",)] for v in variants)
     out = []
@@ -211,18 +208,15 @@ def levels_ab(scene, steps: int, repeats: int, levels=(1, 2)) -> list[dict]:
     def fwd(p):
         return obj(observed(config, p, steps, None, state=state0, checkpoint=False, prime=False)[0], p)
 
-    from rockjax.rollout import saved_pair_sums
-
     fns = {"forward": jax.jit(fwd).lower(scene.params).compile()}
     variants = [(lv, save) for lv in levels
                 for save in ((True, False) if lv >= 2 and config.effective_adjoint == Adjoint.PAIR_SUMS else (True,))]
     for lv, save in variants:
-        def loss(p, lv=lv):
-            return obj(observed(config, p, steps, None, state=state0, checkpoint=True, prime=False,
+        def loss(p, lv=lv, cfg=config.tuned(save_pair_sums=save)):
+            return obj(observed(cfg, p, steps, None, state=state0, checkpoint=True, prime=False,
                                 checkpoint_levels=lv)[0], p)
 
-        with saved_pair_sums(save):
-            fns[lv, save] = jax.jit(jax.grad(loss)).lower(scene.params).compile()
+        fns[lv, save] = jax.jit(jax.grad(loss)).lower(scene.params).compile()
     times = alternated(fns, scene.params, repeats=repeats)
     f = times["forward"]
     return [dict(bench="levels_ab", checkpoint_levels=lv, saved_pair_sums=save, adjoint=config.effective_adjoint.value,
@@ -245,9 +239,9 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--f64", action="store_true")
     ap.add_argument("--adjoint", default=None, choices=[a.value for a in Adjoint],
-                    help="Config.adjoint: how reverse mode goes through the WCSPH pair sums (default: the scene's)")
+                    help="Tuning.adjoint: how reverse mode goes through the WCSPH pair sums (default: the scene's)")
     ap.add_argument("--dx", type=float, default=0.05, help="particle spacing of the dam scene m (0.05: 360 fluid)")
-    ap.add_argument("--gather", default=None, choices=["components", "rows"], help="Config.gather (GatherForm)")
+    ap.add_argument("--gather", default=None, choices=["components", "rows"], help="Tuning.gather (GatherForm)")
     ap.add_argument("--skip-grad", action="store_true")
     ap.add_argument("--skip-ensemble", action="store_true")
     ap.add_argument("--levels", type=int, default=2, choices=[1, 2, 3],
@@ -263,9 +257,9 @@ def main(argv=None):
                     help="PAIR_SUMS with JAX's VJP of each pair function instead of the hand-derived pullbacks")
     ap.add_argument("--backward-tile", type=int, default=None,
                     help="rows per block of PAIR_SUMS's backward where the forward is one block "
-                         "(sph.pair_sum.BACKWARD_TILE, 512; 0 = one block, for accelerators)")
+                         "(Tuning.backward_tile, 512; 0 = one block, for accelerators)")
     ap.add_argument("--adjoint-ab", action="store_true",
-                    help="only the interleaved A/B of Config.adjoint x row_tile (0, 512) at --base-steps steps")
+                    help="only the interleaved A/B of Tuning.adjoint x row_tile (0, 512) at --base-steps steps")
     ap.add_argument("--time-plain", action="store_true",
                     help="also time the un-checkpointed gradient (memory grows like T)")
     args = ap.parse_args(argv)
@@ -280,20 +274,15 @@ def main(argv=None):
     from rockjax.calibrate import observed
     from rockjax.rollout import default_chunk
 
-    if args.jax_pullbacks:
-        from rockjax.sph.pair_sum import hand_pullbacks
-
-        hand_off = hand_pullbacks(False)  # for the whole run (kept referenced)
-        hand_off.__enter__()
-    if args.backward_tile is not None:
-        from rockjax.sph import pair_sum
-
-        pair_sum.BACKWARD_TILE = args.backward_tile  # read at trace time
     scene = build(args.scene, args.dx)
+    if args.jax_pullbacks:
+        scene = scene.replace(config=scene.config.tuned(hand_pullbacks=False))
+    if args.backward_tile is not None:
+        scene = scene.replace(config=scene.config.tuned(backward_tile=args.backward_tile))
     if args.adjoint:
-        scene = scene.replace(config=scene.config.replace(adjoint=Adjoint(args.adjoint)))
+        scene = scene.replace(config=scene.config.tuned(adjoint=Adjoint(args.adjoint)))
     if args.gather:  # GatherForm: a speed setting (rows: one row gather of the stacked values)
-        scene = scene.replace(config=scene.config.replace(gather=GatherForm(args.gather)))
+        scene = scene.replace(config=scene.config.tuned(gather=GatherForm(args.gather)))
     config = scene.config
     k = config.rebuild_every
     T = args.base_steps or 2 * k

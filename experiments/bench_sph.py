@@ -75,8 +75,8 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
     t0 = time.perf_counter()
     scene = rj.scenes.dam_break(dx=0.5 / nx, scheme=fluid_scheme, **kw)
     setup_s = time.perf_counter() - t0
-    if gather is not None or row_tile is not None:  # speed settings (GatherForm, Config.row_tile)
-        scene = scene.replace(config=scene.config.replace(
+    if gather is not None or row_tile is not None:  # speed settings (rockjax.Tuning)
+        scene = scene.replace(config=scene.config.tuned(
             **({"gather": rj.GatherForm(gather)} if gather else {}), **({"row_tile": row_tile} if row_tile is not None else {})))
     config, params, state0 = scene.config, scene.params, scene.state
     counts = scene.counts()
@@ -236,8 +236,8 @@ def main(argv=None):
     ap.add_argument("--ab", nargs="+", metavar="SKIN:K:TRIGGER[:DIFFUSION]",
                     help="interleaved in-process A/B of these settings (first size only), e.g. 0.6:8:0 0.3:32:1 "
                          "0.3:32:1:fourtakas_surface")
-    ap.add_argument("--gather", default=None, choices=["components", "rows"], help="Config.gather (GatherForm)")
-    ap.add_argument("--row-tile", type=int, default=None, help="Config.row_tile (0: one block)")
+    ap.add_argument("--gather", default=None, choices=["components", "rows"], help="Tuning.gather (GatherForm)")
+    ap.add_argument("--row-tile", type=int, default=None, help="Tuning.row_tile (0: one block)")
     ap.add_argument("--ab-steps", type=int, default=32)
     ap.add_argument("--case", nargs=2, metavar=("SIZE", "SCHEME"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)

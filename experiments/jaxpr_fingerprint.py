@@ -32,7 +32,7 @@ def _cases():
         scene = S.dam_break(**tiny, **kw)
         out.append((f"dam_{name}", post(scene) if post else scene))
     d = out[0][1]
-    out.append(("dam_pair_sums", d.replace(config=d.config.replace(adjoint=rj.Adjoint.PAIR_SUMS))))
+    out.append(("dam_pair_sums", d.replace(config=d.config.tuned(adjoint=rj.Adjoint.PAIR_SUMS))))
     out.append(("tank_default", S.hydrostatic_tank(dx=0.05)))
     out.append(("wedge_penalty", S.sliding_wedge(dx=0.08)))
     out.append(("wedge_bp", S.sliding_wedge(dx=0.08, coupling=rj.Coupling.BOUNDARY_PARTICLES)))

@@ -558,7 +558,7 @@ def sec_grad(doc: Doc):
                   "and 2 (chunks and steps: each step's forward runs again inside its VJP), compiled in one process "
                   "and timed alternately with the forward (medians); memory = XLA temporary bytes of the gradient. "
                   "`steps save pair sums`: with `pair_sums`, whether a checkpointed step keeps its pair passes' "
-                  "outputs for its VJP (`rockjax.rollout.saved_pair_sums`; `-`: records before it existed, no).")
+                  "outputs for its VJP (`Tuning.save_pair_sums`; `-`: records before it existed, no).")
             rows = [[r["n_fluid"], r["dtype"], r["adjoint"], r["steps"], r["checkpoint_levels"],
                      {True: "yes", False: "no"}.get(r.get("saved_pair_sums"), "-"), r["forward_s"],
                      r["grad_s"], r["grad_over_forward"], r["grad_temp_bytes"] / 2**20, r.get("date")] for r in lv]
@@ -567,7 +567,7 @@ def sec_grad(doc: Doc):
                          "grad / forward", "grad MiB", "date"], rows))
         if ab:
             doc.p(f"`{name}` (`bench_grad.py --adjoint-ab --dx ... --base-steps 32`): the checkpointed gradient of the "
-                  "dam scene under each `Config.adjoint` (`autodiff`: JAX transposes each neighbour gather into a "
+                  "dam scene under each `Tuning.adjoint` (`autodiff`: JAX transposes each neighbour gather into a "
                   "scatter-add; `pair_sums`: the gather-only custom VJP of `rockjax.sph.pair_sum`, its pair functions' "
                   "pullbacks hand-derived (`rockjax.sph.pullbacks`, both ends of a pair at once: `hand`) or JAX's VJP "
                   "from each end (`jax`; `-` in the records taken before the hand pullbacks existed: JAX's)) with the forward's "
@@ -998,7 +998,7 @@ def sec_gpu(doc: Doc):
                   "list, and a whole chunk per step. `row tile`: the WCSPH pair sums in blocks of that many rows (a "
                   "sequential scan on the GPU; the CPU's default for large lists, and this run's where the column "
                   "says 512 without a `gather`), 0 = one block (the accelerator default since 2026-11-27); "
-                  "`gather`: `Config.gather` (`GatherForm`; 1-D gathers where not given).")
+                  "`gather`: `Tuning.gather` (`GatherForm`; 1-D gathers where not given).")
             rows = [[r["scheme"], r.get("diffusion", "-") if r["scheme"] == "wcsph" else "-", r["n_fluid"],
                      r.get("row_tile", "512" if r["scheme"] == "wcsph" else "-"),
                      r.get("gather", "-") if r["scheme"] == "wcsph" else "-",

@@ -20,6 +20,7 @@ from .rollout import make_rollout, rollout
 from .scenes import Scene
 from .sph.schemes import WCSPH, SeedScheme
 from .step import make_step, prime
+from .tuning import Tuning
 from .types import (
     Adjoint, Config, Coupling, GatherForm, CouplingParams, CouplingState, FluidParams, GridSpec, Kind,
     NeighbourList, Params, Particles, State, Status,
@@ -29,7 +30,7 @@ __all__ = [
     "__version__",
     "Config", "Params", "FluidParams", "State", "Particles", "NeighbourList", "GridSpec",
     "CouplingParams", "CouplingState",
-    "WCSPH", "SeedScheme", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
+    "WCSPH", "SeedScheme", "Tuning", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
     "make_step", "prime", "make_rollout", "rollout",
     "simulate", "Result", "SimulationError",
     "Scene", "scenes", "observables", "io", "sph", "blocks", "coupling", "calibrate", "ensembles",

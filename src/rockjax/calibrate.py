@@ -5,7 +5,7 @@ This module owns the user-facing gradient entry points and the calibration loop:
 * ``final_state(scene, params, n_steps)`` / ``observed(scene, params, n_steps, observe)``: prime
   the initial state for ``params`` and run the checkpointed rollout (``rockjax.rollout``); both
   are pure in ``params`` so ``jax.grad``, ``jax.jvp`` (with ``Adjoint.AUTODIFF``, see
-  ``Config.adjoint``) and ``jax.vmap`` go through them;
+  ``Tuning.adjoint``) and ``jax.vmap`` go through them;
 * ``make_loss(scene, n_steps, objective, observe=...)``: ``loss(params) -> []``, e.g.
 
   .. code-block:: python

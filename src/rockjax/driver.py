@@ -195,7 +195,7 @@ def _clear(state: State) -> State:
 
 def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt: Optional[float] = None,
              keep_frames: Optional[bool] = None, progress: Optional[bool] = None, max_regrows: int = 8,
-             observe=None, rebuild_period: Optional[int] = None) -> Result:
+             observe=None, rebuild_period: Optional[int] = None, tuning=None) -> Result:
     """Run ``scene`` to ``t_end`` [s] (rounded up to a whole output frame).
 
     Args:
@@ -212,12 +212,16 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
             many steps; between, the displacement trigger rebuilds it whenever a particle would
             move more than ``skin / 2`` (module docstring). Default ``max(Config.rebuild_every,
             32)``; halved by the driver if a list is ever found stale.
+        tuning: speed settings (``rockjax.Tuning``) replacing the scene's ``config.tuning``, or None.
 
     Raises:
         ValueError: params the config cannot run (checked on the host before the first step).
         SimulationError: a fatal status bit (non-finite values, particles off the grid, unstable dt).
     """
     config, params, state = scene.config, scene.params, scene.state
+    if tuning is not None:
+        config = config.replace(tuning=tuning)
+        scene = scene.replace(config=config)
     if state.blocks is not None:  # a scene whose BlockConfig slots were changed after it was built
         from . import blocks
 

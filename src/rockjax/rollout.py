@@ -38,7 +38,7 @@ so one level is both slower and far larger on the CPU (RESULTS.md "Gradients": c
 Under ``Adjoint.PAIR_SUMS`` a checkpointed step saves the outputs of its two pair passes
 (per-particle arrays, ``sph.pair_sum.SAVED_NAME``; checkpoint policy ``save_only_these_names``):
 the recomputation of the step for its VJP then skips the pair passes, whose custom VJP needs only
-their inputs: a gradient a few per cent cheaper at the same memory (``saved_pair_sums(False)``
+their inputs: a gradient a few per cent cheaper at the same memory (``Tuning(save_pair_sums=False)``
 turns it off for A/B timings; RESULTS.md "Gradients").
 ``checkpoint=False`` is a plain scan of blocks (the host driver's forward-only path; no memory
 saving, nothing recomputed).
@@ -46,7 +46,6 @@ saving, nothing recomputed).
 
 from __future__ import annotations
 
-import contextlib
 import math
 from typing import Callable, Optional
 
@@ -57,24 +56,7 @@ from .sph.pair_sum import SAVED_NAME
 from .step import advance, refresh
 from .types import Adjoint, Config, Kind, Params, State
 
-__all__ = ["make_rollout", "rollout", "n_blocks_for", "default_chunk", "needs_rebuild", "scheduled_step",
-           "saved_pair_sums"]
-
-_SAVE_PAIR_SUMS = [True]
-
-
-@contextlib.contextmanager
-def saved_pair_sums(enabled: bool):
-    """Within the block, rollouts *built* save (True, the default) or recompute (False) the pair
-    sums' outputs in their checkpointed steps under ``Adjoint.PAIR_SUMS`` (module docstring): for
-    A/B benchmarks."""
-    old = _SAVE_PAIR_SUMS[0]
-    _SAVE_PAIR_SUMS[0] = bool(enabled)
-    try:
-        yield
-    finally:
-        _SAVE_PAIR_SUMS[0] = old
-
+__all__ = ["make_rollout", "rollout", "n_blocks_for", "default_chunk", "needs_rebuild", "scheduled_step"]
 
 def needs_rebuild(state: State, config: Config) -> jax.Array:
     """Whether the next step would move a particle more than ``skin / 2`` from the list's build
@@ -148,7 +130,7 @@ def scheduled_step(config: Config, *, rebuild_on_displacement: bool = True, peri
 
 def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
                  observe: Optional[Callable[[State, Params], object]] = None, chunk: Optional[int] = None,
-                 rebuild_on_displacement: bool = True, checkpoint_levels: int = 2):
+                 rebuild_on_displacement: bool = True, checkpoint_levels: int = 2, tuning=None):
     """Build ``run(state, params) -> (state, observations)``.
 
     Args:
@@ -167,11 +149,14 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
             only (each chunk's steps store their intermediates in the backward pass: most memory,
             fewest recomputations), 2 = chunks and steps (the default), 3 = chunks, blocks and
             steps (least memory, one more forward pass). Module docstring.
+        tuning: speed settings (``rockjax.Tuning``) replacing ``config.tuning``, or None.
 
     Returns:
         ``run(state, params)`` returning ``(final State, observations or None)``.
     """
     n_blocks = int(n_blocks)
+    if tuning is not None:
+        config = config.replace(tuning=tuning)
     if checkpoint_levels not in (1, 2, 3):
         raise ValueError(f"make_rollout: checkpoint_levels must be 1, 2 or 3 (got {checkpoint_levels!r})")
     if n_blocks < 1:
@@ -181,7 +166,7 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
     one_step = _step_in_block(config, rebuild_on_displacement)
     if checkpoint and checkpoint_levels >= 2:
         policy = None
-        if _SAVE_PAIR_SUMS[0] and config.effective_adjoint == Adjoint.PAIR_SUMS:
+        if config.tuning.save_pair_sums and config.effective_adjoint == Adjoint.PAIR_SUMS:
             policy = jax.checkpoint_policies.save_only_these_names(SAVED_NAME)
         one_step = jax.checkpoint(one_step, prevent_cse=False, policy=policy)
 
@@ -233,8 +218,8 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
 
 def rollout(config: Config, state: State, params: Params, n_blocks: int, *, checkpoint: bool = True,
             observe=None, chunk: Optional[int] = None, rebuild_on_displacement: bool = True,
-            checkpoint_levels: int = 2):
+            checkpoint_levels: int = 2, tuning=None):
     """Functional form of ``make_rollout(config, n_blocks, ...)(state, params)``."""
     return make_rollout(config, n_blocks, checkpoint=checkpoint, observe=observe, chunk=chunk,
                         rebuild_on_displacement=rebuild_on_displacement,
-                        checkpoint_levels=checkpoint_levels)(state, params)
+                        checkpoint_levels=checkpoint_levels, tuning=tuning)(state, params)

@@ -126,13 +126,16 @@ def prime(state: State, params: Params, config: Config) -> State:
     return state
 
 
-def make_step(config: Config):
-    """Return the pure ``step(state, params) -> state`` for this static config.
+def make_step(config: Config, *, tuning=None):
+    """Return the pure ``step(state, params) -> state`` for this static config (with ``tuning``,
+    speed settings replacing ``config.tuning``: ``rockjax.Tuning``).
 
     The step rebuilds the neighbour list when ``state.step % config.rebuild_every == 0`` and then
     advances by ``config.dt``. It is jittable, differentiable and vmappable. For long runs prefer
     ``rollout``, which rebuilds at block starts without a ``lax.cond``.
     """
+    if tuning is not None:
+        config = config.replace(tuning=tuning)
 
     def step(state: State, params: Params) -> State:
         due = state.step % config.rebuild_every == 0

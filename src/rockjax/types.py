@@ -20,6 +20,8 @@ from typing import Any, Optional
 import jax
 import jax.numpy as jnp
 
+from .tuning import Adjoint, GatherForm, Tuning
+
 __all__ = [
     "Adjoint",
     "GatherForm",
@@ -42,28 +44,6 @@ __all__ = [
 # --------------------------------------------------------------------------------------------
 # Choices that are not fluid terms (the fluid's are objects: ``rockjax.sph.schemes``)
 # --------------------------------------------------------------------------------------------
-
-
-class Adjoint(enum.Enum):
-    """How reverse mode (``jax.grad``, ``jax.vjp``) goes through the WCSPH step's neighbour sums."""
-
-    #: JAX transposes every neighbour gather (a scatter-add) and keeps the per-pair intermediates;
-    #: forward mode (``jax.jvp``) works too
-    AUTODIFF = "autodiff"
-    #: a custom VJP of each pair sum by gathers over the symmetric list (``sph.pair_sum``): the
-    #: same forward, a faster reverse mode; ``jax.jvp`` through the step raises
-    PAIR_SUMS = "pair_sums"
-
-
-class GatherForm(enum.Enum):
-    """How the WCSPH pair sums read the neighbours' values (``Config.gather``): a speed setting only."""
-
-    #: one 1-D gather per value (position components, velocity components, rho, p, ...): the
-    #: fastest forward on the CPU (DESIGN.md: 2x a packed [n, 8] gather)
-    COMPONENTS = "components"
-    #: the values stacked into one [N, C] array and gathered by rows ([R, K, C]): its reverse mode
-    #: scatters rows, which DESIGN.md measured 8x faster on a GPU than the component scatters
-    ROWS = "rows"
 
 
 class Coupling(enum.Enum):
@@ -223,35 +203,13 @@ class Config:
             which a WCSPH step sums the loads on the blocks (0: no sub-list; the loads then come
             from the whole wall-pair list); scene builders size it, the driver grows it on
             ``BODY_PAIR_OVERFLOW``.
-        row_tile: the WCSPH step sums over the pairs in blocks of this many fluid rows, so that
-            the per-pair intermediates stay in cache (0: all rows at once). None (default):
-            blocks of ~512 rows when the list has more than ``2**19`` slots (``n_fluid * K``), else
-            one block (measured on 2 CPU cores: blocks 1.5-1.8x faster at 5.5k-21k rows, but
-            ~25 % slower at <= 2.7k rows); on an accelerator (JAX's default backend not ``cpu``)
-            always one block: the blocks are a sequential scan there (measured on one H200,
-            2026-11-27, 3D dam break, f32: 23k rows 1.29 ms/step in blocks of 512 vs 0.62 ms in
-            one; at 80k rows the blocked step took 4.35 ms). A speed setting only: the result
-            does not depend on it beyond float rounding (``effective_row_tile``).
         scheme: the fluid scheme and its terms, a static object (``rockjax.sph.schemes``):
             ``WCSPH(kernel=..., viscosity=..., walls=..., diffusion=..., gamma=7)`` (default) or
             ``SeedScheme(gradient=..., walls=...)``.
-        gather: how the WCSPH pair sums gather the neighbours' values (``GatherForm``): one 1-D
-            gather per value or one row gather of them stacked; a speed setting only (the same
-            numbers). None (default): ``COMPONENTS`` on the CPU (its forward ~1.5x faster there),
-            ``ROWS`` on an accelerator (``effective_gather``; measured on one H200, 2026-11-28,
-            3D dam break, f32: forward the same, 1.16 vs 1.17 ms/step at 80k water particles; a
-            checkpointed 16-step gradient at 23k 2.6x faster, 7.3 vs 18.5 forwards, as DESIGN.md
-            measured for the reverse mode of 1-D gathers).
-        adjoint: how reverse mode goes through the WCSPH pair sums (``Adjoint``): a speed setting
-            of gradients only (the forward is the same computation). None (default):
-            ``PAIR_SUMS`` when the pair sums run in row blocks (``effective_row_tile`` > 0, large
-            lists), else ``AUTODIFF`` (``effective_adjoint``; measured 2026-11-26, 32-step
-            checkpointed dam-break gradients, f32: at 8.4k and 23k water particles ``PAIR_SUMS``
-            1.4-1.6x faster, at 2.9k (one block) ``AUTODIFF`` 1.2x faster; with the hand-derived
-            pullbacks of ``sph.pullbacks`` and the rollout keeping the pair sums: 1.6-1.8x faster at
-            8.4k-23k, and at 2.9k too, 6.4 vs 6.9 forwards, but the default keeps ``AUTODIFF``
-            there so that ``jax.jvp`` works). Forward mode
-            (``jax.jvp``) through a step needs ``AUTODIFF``.
+        tuning: the speed settings (``rockjax.tuning.Tuning``: row blocks, gather form, adjoint
+            form), apart from the physics; its defaults depend on the backend
+            (``effective_row_tile``, ``effective_gather``, ``effective_adjoint``). ``tuned(...)``
+            changes some of them.
         cfl: Courant number used for the host time step and the in-jit stability check.
         blocks: the static block description (``rockjax.blocks.BlockConfig``), or None for no blocks.
         coupling: how water and blocks exchange forces: a ``Coupling`` name (NONE when either is
@@ -286,10 +244,8 @@ class Config:
     wall_pair_capacity: int = 0
     n_block_particles: int = 0
     body_pair_capacity: int = 0
-    row_tile: Optional[int] = None
     scheme: Any = dataclasses.field(default_factory=lambda: _default_scheme())
-    adjoint: Optional[Adjoint] = None
-    gather: Optional[GatherForm] = None
+    tuning: Tuning = Tuning()
     cfl: float = 0.25
     blocks: Optional[Any] = None
     coupling: Any = Coupling.NONE
@@ -334,8 +290,8 @@ class Config:
             raise ValueError(f"Config.n_block_particles must be in [0, n_wall = {self.n_wall}] (got {self.n_block_particles})")
         if self.body_pair_capacity < 0:
             raise ValueError(f"Config.body_pair_capacity must be >= 0 (got {self.body_pair_capacity})")
-        if self.row_tile is not None and self.row_tile < 0:
-            raise ValueError(f"Config.row_tile must be >= 0 or None (0 = no blocks; got {self.row_tile})")
+        if not isinstance(self.tuning, Tuning):
+            raise ValueError(f"Config.tuning must be a rockjax.Tuning (got {self.tuning!r})")
         if self.skin < 0:
             raise ValueError(f"Config.skin must be >= 0 (got {self.skin})")
         min_cell = min(c for c, n, p in zip(self.grid.cell_size, self.grid.shape, self.grid.periodic))
@@ -376,26 +332,22 @@ class Config:
 
     @property
     def effective_row_tile(self) -> int:
-        """Rows per block of the WCSPH pair sums (``row_tile`` resolved; 0 = one block)."""
-        if self.row_tile is not None:
-            return self.row_tile
-        if jax.default_backend() != "cpu":  # GPUs: a scan over blocks runs them one after another
-            return 0
-        return 512 if self.n_fluid * self.neighbour_capacity > 2**19 else 0
+        """Rows per block of the WCSPH pair sums (``tuning.row_tile`` resolved; 0 = one block)."""
+        return self.tuning.row_tile_for(self.n_fluid, self.neighbour_capacity)
 
     @property
     def effective_gather(self) -> GatherForm:
-        """``gather`` resolved (see ``Config``): row gathers on accelerators, 1-D gathers on the CPU."""
-        if self.gather is not None:
-            return self.gather
-        return GatherForm.COMPONENTS if jax.default_backend() == "cpu" else GatherForm.ROWS
+        """``tuning.gather`` resolved (``Tuning``): row gathers on accelerators, 1-D gathers on the CPU."""
+        return self.tuning.gather_form()
 
     @property
     def effective_adjoint(self) -> Adjoint:
-        """``adjoint`` resolved (see ``Config``)."""
-        if self.adjoint is not None:
-            return self.adjoint
-        return Adjoint.PAIR_SUMS if self.effective_row_tile > 0 else Adjoint.AUTODIFF
+        """``tuning.adjoint`` resolved (``Tuning``)."""
+        return self.tuning.adjoint_for(self.effective_row_tile)
+
+    def tuned(self, **changes) -> "Config":
+        """This config with some speed settings changed (``Tuning`` fields), e.g. ``tuned(row_tile=0)``."""
+        return self.replace(tuning=self.tuning.replace(**changes))
 
     @property
     def list_radius(self) -> float:

@@ -8,7 +8,7 @@ order, so the gradient of one step's outcome with respect to every state and par
 agree to round-off (bound 1e-10 of each leaf's largest entry; measured <= 2e-14):
 
 * ``dam``: the default scheme (Fourtakas diffusion, artificial viscosity, Adami walls), the
-  forward in one block and the reverse pass in blocks (of 128 rows: ``pair_sum.BACKWARD_TILE`` set);
+  forward in one block and the reverse pass in blocks (of 128 rows: ``Tuning.backward_tile``);
 * ``dam-antuono-laminar-dynamic``: Antuono's diffusion (renormalised gradients as pass outputs and
   inputs), laminar viscosity, dynamic walls, in blocks of 7 rows, so the last block overlaps its
   predecessor (its shared rows must count once);
@@ -27,7 +27,7 @@ The ``wedge`` case and the rollout are in the slow suite (~140 s and ~110 s of c
 Each state is the scene's lattice with the water moved by up to 0.15 dx, random velocities and
 densities, then primed (list rebuilt), so every pair term is live. Also: ``jax.vmap`` of the
 custom VJP (ensembles) equals it per member, and ``jax.jvp`` through it raises (forward mode needs
-``Adjoint.AUTODIFF``, as ``Config.adjoint`` documents).
+``Adjoint.AUTODIFF``, as ``Tuning.adjoint`` documents).
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ import pytest
 
 import gradcases as gc
 import rockjax as rj
-from rockjax.sph import pair_sum, wcsph
+from rockjax.sph import wcsph
 from rockjax.sph.kernels import SUPPORT_FACTOR
 from rockjax.sph.neighbours import block_plan
 from rockjax.step import advance
@@ -103,7 +103,7 @@ class _Warm(dict):
     def __missing__(self, name):
         case = CASES[name]
         scene = _scene(case)
-        config = scene.config.replace(row_tile=case["row_tile"])
+        config = scene.config.tuned(row_tile=case["row_tile"])
         self[name] = (config, _perturbed(scene, config), scene.params)
         return self[name]
 
@@ -114,7 +114,7 @@ def warm(x64):
 
 
 def _grad(config, state, params, adjoint):
-    c = config.replace(adjoint=adjoint)
+    c = config.tuned(adjoint=adjoint)
     return jax.jit(jax.grad(lambda s, p: _outcome(advance(s, p, c)), argnums=(0, 1), allow_int=True))(state, params)
 
 
@@ -126,7 +126,7 @@ SLOW_CASES = {"wedge"}
 def test_pair_sum_adjoint_equals_autodiff(warm, name, monkeypatch):
     config, state, params = warm[name]
     if CASES[name]["row_tile"]:
-        size, count = block_plan(config.n_fluid, config.row_tile)
+        size, count = block_plan(config.n_fluid, config.tuning.row_tile)
         assert size * count > config.n_fluid  # the last block overlaps (the case is meant to)
     used = []
     for fn in (wcsph._momentum_pair, wcsph._continuity_pair):  # record which pullbacks the trace takes
@@ -136,8 +136,8 @@ def test_pair_sum_adjoint_equals_autodiff(warm, name, monkeypatch):
             return pb
         monkeypatch.setattr(fn, "symmetric_pullback", spy)
     if CASES[name].get("backward_tile"):  # the reverse pass in blocks although the forward runs in one
-        monkeypatch.setattr(pair_sum, "BACKWARD_TILE", CASES[name]["backward_tile"])
-        assert config.n_fluid > pair_sum.BACKWARD_TILE and config.effective_row_tile == 0
+        config = config.tuned(backward_tile=CASES[name]["backward_tile"])
+        assert config.n_fluid > config.tuning.backward_rows() and config.effective_row_tile == 0
     ref = _grad(config, state, params, rj.Adjoint.AUTODIFF)
     got = _grad(config, state, params, rj.Adjoint.PAIR_SUMS)
     assert set(used) == {HAND[name]} and len(used) == (2 if HAND[name] else 1), used  # Antuono: no momentum_pair
@@ -175,7 +175,7 @@ def test_fluid_pairs_within_support_are_listed_both_ways(warm):
 
 def test_forward_mode_through_pair_sums_raises(warm):
     config, state, params = warm["dam"]
-    c = config.replace(adjoint=rj.Adjoint.PAIR_SUMS)
+    c = config.tuned(adjoint=rj.Adjoint.PAIR_SUMS)
     tangent = jax.tree_util.tree_map(jnp.zeros_like, params)
     with pytest.raises(TypeError, match="custom_vjp"):
         jax.jvp(lambda p: _outcome(advance(state, p, c)), (params,), (tangent,))
@@ -184,7 +184,7 @@ def test_forward_mode_through_pair_sums_raises(warm):
 def test_vmap_of_pair_sum_gradient_equals_per_member(warm):
     # ensembles batch the custom VJP (``rockjax.ensembles``): two members differing in c0 and alpha
     config, state, params = warm["dam"]
-    c = config.replace(adjoint=rj.Adjoint.PAIR_SUMS)
+    c = config.tuned(adjoint=rj.Adjoint.PAIR_SUMS)
 
     def g(p):
         return jax.grad(lambda q: _outcome(advance(state, q, c)))(p)
@@ -205,7 +205,7 @@ def test_rollout_gradient_equals_autodiff(x64):
     scene = gc.tiny_dam_break()
     grads = {}
     for adjoint in rj.Adjoint:
-        config = scene.config.replace(adjoint=adjoint)
+        config = scene.config.tuned(adjoint=adjoint)
         value, grads[adjoint] = gc.dam_functional(config)(scene.params, scene.state)
         assert float(value) > 1.0
     ref, got = (jax.tree_util.tree_leaves(grads[a]) for a in (rj.Adjoint.AUTODIFF, rj.Adjoint.PAIR_SUMS))

@@ -1,4 +1,4 @@
-"""The WCSPH step summed in blocks of rows (``Config.row_tile``, ``neighbours.scan_rows``) equals
+"""The WCSPH step summed in blocks of rows (``Tuning.row_tile``, ``neighbours.scan_rows``) equals
 the step over all rows at once: same state (to float rounding) and same gradients, for both wall
 models, with a tile that does not divide the row count (the last block overlaps its predecessor,
 and its overlapping rows must not be counted twice); and the walls' sums over the flat fluid-wall
@@ -44,7 +44,7 @@ def test_scan_rows_covers_each_row_once():
 def primed(request, x64):
     sc = rj.scenes.dam_break(dx=0.5 / 5, column_height=0.5, tank_length=1.0, tank_width=0.5, column_width=0.4,
                              scheme=rj.WCSPH(walls=request.param))
-    config = sc.config.replace(row_tile=0)
+    config = sc.config.tuned(row_tile=0)
     state = jax.jit(lambda s, p: prime(s, p, config))(sc.state, sc.params)
     yield config, sc.params, state
 
@@ -61,7 +61,7 @@ def test_tiled_step_equals_untiled(primed, x64):
     size, count = block_plan(nf, 17)
     assert count > 2 and nf % size, "the check needs several blocks and an overlapping last one"
     ref = jax.jit(lambda s: _run(config, params, s))(state).particles
-    tiled = config.replace(row_tile=17)
+    tiled = config.tuned(row_tile=17)
     out = jax.jit(lambda s: _run(tiled, params, s))(state).particles
     for name in ("x", "v", "a", "rho", "p", "drho_dt"):
         a, b = np.asarray(getattr(out, name)), np.asarray(getattr(ref, name))
@@ -78,7 +78,7 @@ def test_tiled_gradient_equals_untiled(primed, x64):
 
     c0 = params.fluid.c0
     g_ref = jax.jit(jax.grad(lambda c: loss(c, config)))(c0)
-    g_tiled = jax.jit(jax.grad(lambda c: loss(c, config.replace(row_tile=17))))(c0)
+    g_tiled = jax.jit(jax.grad(lambda c: loss(c, config.tuned(row_tile=17))))(c0)
     assert np.isfinite(g_ref) and g_ref != 0
     np.testing.assert_allclose(float(g_tiled), float(g_ref), rtol=1e-9)
 
@@ -87,7 +87,7 @@ def test_row_gather_equals_component_gather(primed, x64):
     """``GatherForm.ROWS`` (the neighbours' values stacked and gathered by rows) gives the same
     steps, and the same gradient under both adjoints, as one 1-D gather per value (float64)."""
     config, params, state = primed
-    rows = config.replace(gather=rj.GatherForm.ROWS)
+    rows = config.tuned(gather=rj.GatherForm.ROWS)
     a = jax.jit(lambda s: _run(config, params, s))(state).particles
     b = jax.jit(lambda s: _run(rows, params, s))(state).particles
     for name in ("x", "v", "rho", "p"):
@@ -101,17 +101,17 @@ def test_row_gather_equals_component_gather(primed, x64):
         return jnp.sum(P.x[:, 0] ** 2) + 1e-6 * jnp.sum(P.p)
 
     c0 = params.fluid.c0
-    ref = float(jax.jit(jax.grad(lambda c: loss(c, config.replace(adjoint=rj.Adjoint.AUTODIFF))))(c0))
+    ref = float(jax.jit(jax.grad(lambda c: loss(c, config.tuned(adjoint=rj.Adjoint.AUTODIFF))))(c0))
     assert np.isfinite(ref) and ref != 0
     for adjoint in (rj.Adjoint.AUTODIFF, rj.Adjoint.PAIR_SUMS):
-        g = jax.jit(jax.grad(lambda c: loss(c, rows.replace(adjoint=adjoint))))(c0)
+        g = jax.jit(jax.grad(lambda c: loss(c, rows.tuned(adjoint=adjoint))))(c0)
         np.testing.assert_allclose(float(g), ref, rtol=1e-9, err_msg=adjoint.value)
 
 
 def test_row_tile_validated():
     sc = rj.scenes.dam_break(dx=0.5 / 5, column_height=0.5, tank_length=1.0, tank_width=0.5, column_width=0.4)
     with pytest.raises(ValueError, match="row_tile"):
-        sc.config.replace(row_tile=-1)
+        sc.config.tuned(row_tile=-1)
 
 
 def test_flat_wall_sums_equal_row_transpose(primed, x64):
@@ -142,7 +142,7 @@ def test_default_row_tile_depends_on_list_size():
     assert c.row_tile is None and c.effective_row_tile == 0  # a few hundred rows: one block
     big = c.replace(n_fluid=2**20 // c.neighbour_capacity + 1)
     assert big.effective_row_tile == 512
-    assert c.replace(row_tile=0).effective_row_tile == 0 and c.replace(row_tile=64).effective_row_tile == 64
+    assert c.tuned(row_tile=0).effective_row_tile == 0 and c.tuned(row_tile=64).effective_row_tile == 64
 
 
 def test_default_row_tile_is_one_block_on_accelerators(monkeypatch):
@@ -153,7 +153,7 @@ def test_default_row_tile_is_one_block_on_accelerators(monkeypatch):
     assert big.effective_row_tile == 512 and big.effective_adjoint == rj.Adjoint.PAIR_SUMS  # here: the CPU
     monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
     assert big.effective_row_tile == 0 and big.effective_adjoint == rj.Adjoint.AUTODIFF
-    assert big.replace(row_tile=512).effective_row_tile == 512
+    assert big.tuned(row_tile=512).effective_row_tile == 512
 
 
 def test_default_gather_is_rows_on_accelerators_only(monkeypatch):
@@ -161,10 +161,10 @@ def test_default_gather_is_rows_on_accelerators_only(monkeypatch):
     row gathers on a GPU (their reverse mode is faster there); an explicit ``gather`` still wins."""
     c = rj.scenes.dam_break(dx=0.5 / 5, column_height=0.5, tank_length=1.0, tank_width=0.5, column_width=0.4).config
     assert c.gather is None and c.effective_gather == rj.GatherForm.COMPONENTS  # here: the CPU
-    assert c.replace(gather=rj.GatherForm.ROWS).effective_gather == rj.GatherForm.ROWS
+    assert c.tuned(gather=rj.GatherForm.ROWS).effective_gather == rj.GatherForm.ROWS
     monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
     assert c.effective_gather == rj.GatherForm.ROWS
-    assert c.replace(gather=rj.GatherForm.COMPONENTS).effective_gather == rj.GatherForm.COMPONENTS
+    assert c.tuned(gather=rj.GatherForm.COMPONENTS).effective_gather == rj.GatherForm.COMPONENTS
 
 
 def test_row_gather_equals_component_gather_in_a_coupled_step(x64):
@@ -174,8 +174,8 @@ def test_row_gather_equals_component_gather_in_a_coupled_step(x64):
     sc = rj.scenes.sliding_wedge(dx=0.05, slope_angle_deg=40.0, block_length=0.2, block_width=0.2, water_depth=0.2,
                                  flat_length=0.4, flume_width=0.4, start_distance=0.0,
                                  coupling=rj.Coupling.BOUNDARY_PARTICLES)
-    config = sc.config.replace(gather=rj.GatherForm.COMPONENTS)
-    rows = config.replace(gather=rj.GatherForm.ROWS)
+    config = sc.config.tuned(gather=rj.GatherForm.COMPONENTS)
+    rows = config.tuned(gather=rj.GatherForm.ROWS)
     state = jax.jit(lambda s, p: prime(s, p, config))(sc.state, sc.params)
     a = jax.jit(lambda s: _run(config, sc.params, s, steps=4))(state)
     b = jax.jit(lambda s: _run(rows, sc.params, s, steps=4))(state)

@@ -28,7 +28,7 @@ works unchanged), a row with more than ``neighbour_capacity`` neighbours sets
 
 Pair geometry is gathered component by component (1-D gathers): on the CPU, gathering a
 ``[N, 3]`` array by rows was measured 5x slower than three 1-D gathers. ``GatherForm.ROWS``
-(``Config.gather``) gathers rows instead, the default on accelerators, where the reverse mode of
+(``Tuning.gather``) gathers rows instead, the default on accelerators, where the reverse mode of
 row gathers was measured 2.6x faster and the forward as fast (``Config.effective_gather``).
 """
 

@@ -26,7 +26,7 @@ evaluations, in the row blocks and over the wall list alike. The forward is the 
 either way; the custom VJP serves reverse mode only (``jax.grad``, ``jax.vjp``): ``jax.jvp``
 through it raises, so forward mode needs ``Adjoint.AUTODIFF``.
 
-Why the default (``Config.adjoint``, ``effective_adjoint``): where the forward runs in row blocks
+Why the default (``Tuning.adjoint``, ``effective_adjoint``): where the forward runs in row blocks
 (lists over 2^19 slots) a checkpointed gradient is markedly cheaper with ``PAIR_SUMS``; on smaller
 lists, in one block, ``AUTODIFF`` is about as fast inside a rollout's scan (XLA runs JAX's
 transposed pass faster there than alone, and this VJP's row blocks add operations) and keeps
@@ -39,7 +39,6 @@ The wall columns' cotangents take one scatter per quantity: one stacked [M, C] s
 
 from __future__ import annotations
 
-import contextlib
 from typing import Callable
 
 import jax
@@ -50,18 +49,13 @@ from ..types import Adjoint, Config, GatherForm, Kind
 from .neighbours import Pairs, Rows, neighbour_kind, pairs, scan_rows, take
 from .walls import wall_pair_geometry
 
-__all__ = ["pair_sum", "gathered", "with_pullback", "hand_pullbacks", "SAVED_NAME"]
+__all__ = ["pair_sum", "gathered", "with_pullback", "SAVED_NAME"]
 
 #: ``fn(ri, cj, d, params, mask, fluid_j, config) -> tuple of per-pair arrays``: ``ri`` a dict of the
 #: rows' values ([R, 1] or [M]), ``cj`` a dict of the neighbours' values ([R, K] or [M]), ``d`` three
 #: arrays ``x_i - x_j`` (minimum image), ``mask`` True for a real pair, ``fluid_j`` True where j is
 #: fluid. Elementwise with broadcasting; each output must vanish (with its derivatives) off ``mask``.
 PairFn = Callable
-
-#: rows per block of the reverse pass when the forward runs in one block (``Config.row_tile`` 0 or
-#: unset on a small list): its per-pair derivatives stay in cache. 512 was the fastest block size
-#: of a WCSPH step's VJP on the CPU (smaller blocks add loop steps, larger ones leave the cache).
-BACKWARD_TILE = 512
 
 #: ``jax.ad_checkpoint.checkpoint_name`` of the pair sums' outputs under ``Adjoint.PAIR_SUMS``:
 #: per-particle arrays that a rollout's checkpointed step saves (``rollout.make_rollout``), so that
@@ -120,7 +114,7 @@ def _sums_bwd(fn, config, shared, res, ct):
     zero = jax.tree_util.tree_map(jnp.zeros_like, params)
     ct_pad = tuple(jnp.concatenate([c, jnp.zeros((n - nf,) + c.shape[1:], c.dtype)]) for c in ct)
 
-    pullback = getattr(fn, "symmetric_pullback", None) if shared and _HAND[0] else None
+    pullback = getattr(fn, "symmetric_pullback", None) if shared and config.tuning.hand_pullbacks else None
     pullback = pullback(config) if pullback is not None else None
 
     def tile(rows: Rows, own, ct_params):
@@ -155,7 +149,10 @@ def _sums_bwd(fn, config, shared, res, ct):
         ct_params = jax.tree_util.tree_map(jnp.add, ct_params, ct_p)
         return ct_params, (squeeze(ct_ri), squeeze(ct_cj), ct_x)
 
-    ct_params, (ct_row, ct_col, ct_x) = scan_rows(tile, nf, config.effective_row_tile or BACKWARD_TILE, zero)
+    # when the forward runs in one block, the reverse pass runs in ``Tuning.backward_tile`` rows (its
+    # per-pair derivatives stay in cache: 512 was the fastest block of a step's VJP on the CPU)
+    ct_params, (ct_row, ct_col, ct_x) = scan_rows(tile, nf, config.effective_row_tile or config.tuning.backward_rows(),
+                                                  zero)
     pad = lambda a: jnp.concatenate([a, jnp.zeros((n - nf,) + a.shape[1:], a.dtype)])  # noqa: E731
     ct_row = jax.tree_util.tree_map(pad, ct_row)
     ct_col = jax.tree_util.tree_map(pad, ct_col)
@@ -207,21 +204,6 @@ def pair_sum(fn: PairFn, x, row_vals: dict, col_vals: dict, params, nbrs, kind, 
         return _sums(fn, config, shared, x, row_vals, col_vals, params, nbrs, kind)
     out = _sums_custom(fn, config, shared, x, row_vals, col_vals, params, nbrs, kind)
     return tuple(checkpoint_name(o, SAVED_NAME) for o in out)
-
-
-_HAND = [True]
-
-
-@contextlib.contextmanager
-def hand_pullbacks(enabled: bool):
-    """Within the block, functions *traced* use (True, the default) or ignore (False: JAX's VJP of
-    the pair function from each end) the hand-derived pullbacks: for A/B benchmarks and tests."""
-    old = _HAND[0]
-    _HAND[0] = bool(enabled)
-    try:
-        yield
-    finally:
-        _HAND[0] = old
 
 
 def with_pullback(factory: Callable):

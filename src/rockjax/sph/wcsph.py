@@ -15,7 +15,7 @@
 Speed: ``prime`` and the public sums compute the pair geometry, the kernel-gradient factor and the
 neighbour kinds once (``PairTerms``) and share them. A step's two passes (continuity, momentum)
 are pair functions (``_continuity_pair``, ``_momentum_pair``) summed over the rows by
-``sph.pair_sum``, whose reverse mode ``Config.adjoint`` chooses (JAX's, or a gather-only VJP).
+``sph.pair_sum``, whose reverse mode ``Tuning.adjoint`` chooses (JAX's, or a gather-only VJP).
 
 All physical constants come from ``Params`` so gradients reach them.
 """
