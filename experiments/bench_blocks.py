@@ -110,9 +110,16 @@ NARROW_VARIANTS = (("per edge, law over all slots", dict(law_slots=0), True),
                    ("per direction, law over active slots (default)", {}, False))
 
 
+def _history(s):
+    """The contact history of a block state: ``s.history``, or the state itself in the commits
+    before ``BlockState.history`` (same field names; for ``ab_commits.py``)."""
+    return getattr(s, "history", s)
+
+
 def _n_points(s):
     """Active contact points of a block state (also of the commits before ``contact_feature``, for
     ``ab_commits.py``)."""
+    s = _history(s)
     if hasattr(s, "contact_feature"):
         return jnp.sum(s.contact_feature >= 0)
     return jnp.sum(s.slot_active)
@@ -138,7 +145,7 @@ def run_blocks(n, steps, chunk=50, pair_segment=None, edges_as_directions=False,
         def body(c, _):
             s, stat, t = c
             s, st_ = rb.advance_blocks(s, par, cfg, dt=dt, t=t, gravity=g)
-            return (s, stat | st_, t + dt), (jnp.sum(s.pair_mask), _n_points(s))
+            return (s, stat | st_, t + dt), (jnp.sum(_history(s).pair_mask), _n_points(s))
         (s, stat, t), (npairs, npts) = jax.lax.scan(body, (s, jnp.int32(0), t0), None, length=chunk)
         return s, stat, t, npairs, npts
 

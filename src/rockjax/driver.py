@@ -95,7 +95,7 @@ def resize(state: State, config: Config) -> State:
         from . import blocks
 
         b = state.blocks
-        if b.pairs.shape[0] != config.blocks.pair_capacity:
+        if b.history.pairs.shape[0] != config.blocks.pair_capacity:
             _, b = blocks.resize_pairs(config.blocks, b, config.blocks.pair_capacity)
         state = state.replace(blocks=blocks.fit_history(config.blocks, b))
     return state

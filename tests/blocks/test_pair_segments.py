@@ -229,9 +229,10 @@ def test_crossing_edges_overflow_flagged_and_grown(x64):
     # the history of the 4-edge run, refitted to 64 law slots: the same springs, empty slots added
     h4 = out[4][4]
     st4 = make_blocks(shapes, crossing_edges=4, **kw)[2]
-    st4 = rb.with_history(st4, h4)
+    st4 = st4.replace(history=h4)
     wide = rb.fit_history(dataclasses.replace(cfg2, crossing_edges=8, law_slots=64), st4)
     L = cfg2.law_slots
+    wide = wide.history
     assert wide.shear.shape[1] == 64 > L
     np.testing.assert_array_equal(np.asarray(wide.shear)[:, :L], np.asarray(h4.shear))
     np.testing.assert_array_equal(np.asarray(wide.contact_feature)[:, :L], np.asarray(h4.contact_feature))

@@ -3,25 +3,30 @@
 * ``geometry`` (host, numpy): convex polyhedra with half-edge tables, mass properties, packing;
   shape helpers ``box``, ``wedge``, ``prism``, ``slab`` (floor), ``slope`` (inclined plane).
 * ``model``: ``Motion``, ``Broadphase``, ``BlockConfig`` (static), ``BlockParams``, ``BlockShape``,
-  ``BlockState``; ``make_blocks`` (host builder), ``stable_dt`` (seed Eq 8), world geometry, energies.
+  ``BlockState`` (with its ``ContactHistory``); ``make_blocks`` (host builder), ``stable_dt`` (seed Eq 8),
+  world geometry, energies.
 * ``broadphase``: AABBs, all-pairs or sorted uniform grid, fixed-capacity pair buffer.
 * ``fcp``: the Fast Common Plane narrow phase (Nezami et al. 2004).
-* ``contact``: contact points, the penalty / Coulomb contact law, ``contact_forces``.
+* ``contact``: contact points and ``contact_forces`` (FCP -> points -> law -> loads on the blocks).
+* ``laws``: the contact law, a static choice on ``BlockConfig.law``: ``ContactLaw`` (the interface),
+  ``PenaltyCoulomb`` (penalty springs, closing-only damping, Coulomb cap on a shear spring).
 * ``joint_water``: hydrostatic water pressure on contact patches (``BlockConfig.joint_water``).
 * ``integrate``: ``advance_blocks``, one central-difference step (seed Eq 5-7).
 
 This package does not import ``rockjax.sph``.
 """
 
-from .contact import ContactHistory, contact_forces, with_history
+from .contact import contact_forces
 from .geometry import ConvexPolyhedron, PackedBlocks, box, pack, prism, slab, slope, wedge
 from .integrate import advance_blocks, prescribed_motion
+from .laws import ContactLaw, ContactPoint, LawResult, PenaltyCoulomb
 from .model import (
     BlockConfig,
     BlockParams,
     BlockShape,
     BlockState,
     Broadphase,
+    ContactHistory,
     Motion,
     block_mass,
     energies,
@@ -42,9 +47,13 @@ __all__ = [
     "BlockState",
     "Broadphase",
     "ContactHistory",
+    "ContactLaw",
+    "ContactPoint",
     "ConvexPolyhedron",
+    "LawResult",
     "Motion",
     "PackedBlocks",
+    "PenaltyCoulomb",
     "advance_blocks",
     "block_mass",
     "box",
@@ -62,7 +71,6 @@ __all__ = [
     "slope",
     "stable_dt",
     "wedge",
-    "with_history",
     "world_inertia",
     "world_planes",
     "world_vertices",

@@ -1,8 +1,9 @@
-"""Contact points, the contact law and the per-step contact forces of the blocks.
+"""Contact points and the per-step contact forces of the blocks.
 
-Owns :func:`contact_forces` (broad phase -> history remap -> FCP -> contact points -> law ->
-forces and torques on each block) and :class:`ContactHistory`. The per-pair part (FCP, points,
-law, joint water) runs over the pair buffer in segments of ``BlockConfig.pair_segment`` slots and
+Owns :func:`contact_forces` (broad phase -> history remap -> FCP -> contact points -> the contact
+law ``BlockConfig.law`` (module ``laws``) -> forces and torques on each block) and the contact
+points of a pair (:func:`pair_contacts`); the history it reads and returns is
+``model.ContactHistory`` (``BlockState.history``). The per-pair part (FCP, points, law, joint water) runs over the pair buffer in segments of ``BlockConfig.pair_segment`` slots and
 skips a segment holding no overlapping pair (``_segmented``); the pairs' loads are then summed
 onto the blocks. With ``BlockConfig.skip_separated`` (default) a candidate pair whose stored
 common plane still separates it by more than the contact tolerances can reach across
@@ -11,7 +12,7 @@ pairs are gathered to the front so that segments of separated ones are skipped w
 
 Contact points of a pair (i, j) with common-plane normal n (from i to j) -- padded, masked, never
 pruned; each point carries its contact *feature* (a vertex, a pair of edges, the fallback: an id,
-``BlockState.contact_feature``) by which its shear spring follows it from step to step:
+``ContactHistory.contact_feature``) by which its history slot follows it from step to step:
 
 * vertices of j inside block i (slot = vertex of j): depth = distance from the vertex along +n
   to the boundary of i (local: a tilted face gives each corner its own depth);
@@ -29,21 +30,13 @@ pruned; each point carries its contact *feature* (a vertex, a pair of edges, the
 "Inside" is the face-plane test with a tolerance of ``inside_tolerance x radius`` (points on a
 side face, as at the corners of a face-on-face contact, count).
 
-The law below runs over each pair's active points gathered into ``BlockConfig.law_slots`` slots
-(a box pair has up to 16 of its 81 slots), and the shear history is kept in those slots with each
-point's feature: a point takes the spring of the last step's slot with its feature (none: a new
-contact). A pair with more active points sets ``Status.CONTACT_POINT_OVERFLOW``.
-
-Contact law per point (forces on j; i gets the opposite, torques about each centroid):
-
-* normal: ``f_n = k_n delta + c_n max(closing speed, 0)`` with ``c_n = 2 zeta sqrt(k_n m_red / n)``,
-  n the number of active points of the pair (so n points in parallel give the pair's normal
-  mode the damping ratio zeta); the dashpot acts only while the gap closes, so ``f_n >= 0``
-  (never pulls);
-* tangential: a spring on the accumulated tangential displacement u (history, projected on the
-  current plane each step), ``f_t = -k_s u - c_t v_t`` with ``c_t = 2 zeta sqrt(k_s m_red / n)``; if
-  ``|f_t| > f_n tan(phi) + cohesion`` the point slips: ``f_t`` is scaled onto the cap and u
-  set to ``-f_t / k_s`` (no dashpot while slipping).  Norms are gradient-safe.
+The contact law (``BlockConfig.law``, default ``laws.PenaltyCoulomb``: penalty springs,
+closing-only damping, Coulomb cap on a shear spring) runs over each pair's active points gathered
+into ``BlockConfig.law_slots`` slots (a box pair has up to 16 of its 81 slots), and the law's
+history is kept in those slots with each point's feature: a point takes the history of the last
+step's slot with its feature (none: a new contact, zeros). A pair with more active points sets
+``Status.CONTACT_POINT_OVERFLOW``. Forces are those on j; i gets the opposite; torques about
+each centroid.
 
 With ``BlockConfig.joint_water`` the pair's contact patch (the polygon of its active points) also
 carries the hydrostatic pressure of a still water level, pushing the two blocks apart
@@ -62,32 +55,16 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from ..types import Status, _pytree_dataclass
+from ..types import Status
 from .broadphase import candidate_pairs, pairs_are_static
 from .fcp import _first_k, fcp_pair, gap_along, sat_start, vertex_directions
 from .joint_water import joint_water_load
-from .model import BlockConfig, BlockParams, BlockState, Motion, block_mass, world_planes, world_vertices
+from .laws import ContactLaw, ContactPoint
+from .model import (BlockConfig, BlockParams, BlockShape, BlockState, ContactHistory, Motion, block_mass,
+                    world_planes, world_vertices)
 from .rotation import project, safe_norm, tied_max, tied_min
 
-__all__ = ["ContactHistory", "contact_forces", "pair_contacts", "with_history"]
-
-
-@_pytree_dataclass
-class ContactHistory:
-    """The contact part of :class:`BlockState` (same field names and meanings)."""
-
-    pairs: jax.Array
-    pair_mask: jax.Array
-    plane: jax.Array
-    plane_valid: jax.Array
-    shear: jax.Array
-    contact_feature: jax.Array
-
-
-def with_history(state: BlockState, h: ContactHistory) -> BlockState:
-    """``state`` with its contact history replaced by ``h``."""
-    return state.replace(pairs=h.pairs, pair_mask=h.pair_mask, plane=h.plane, plane_valid=h.plane_valid,
-                         shear=h.shear, contact_feature=h.contact_feature)
+__all__ = ["contact_forces", "pair_contacts"]
 
 
 def _inside(pts, N, D, fm, tol):
@@ -119,7 +96,7 @@ class PairContacts(NamedTuple):
     points: jax.Array  #: [S,3] m
     depth: jax.Array  #: [S] m (0 where inactive)
     active: jax.Array  #: [S] bool
-    feature: jax.Array  #: [S] int32, each slot's contact feature (``BlockState.contact_feature``)
+    feature: jax.Array  #: [S] int32, each slot's contact feature (``ContactHistory.contact_feature``)
     edge_overflow: jax.Array  #: [] bool: a block has more edges inside the other than the crossing slots
 
 
@@ -376,31 +353,131 @@ def _remap(old: ContactHistory, pairs, mask, B):
     )
 
 
+class _Bodies(NamedTuple):
+    """The blocks at the current poses as the per-pair passes read them (row b: block b)."""
+
+    X: jax.Array  #: [B,V,3] m world vertices
+    N: jax.Array  #: [B,F,3] world face normals
+    D: jax.Array  #: [B,F] m face offsets (``N.x <= D`` inside)
+    shape: BlockShape
+    x: jax.Array  #: [B,3] m centroids
+    v: jax.Array  #: [B,3] m/s
+    omega: jax.Array  #: [B,3] rad/s
+    inv_m: jax.Array  #: [B] 1/kg (0 for FIXED / PRESCRIBED blocks)
+    vdir: jax.Array  #: [B,V,nD] bool, the edge directions touching each vertex (``fcp.vertex_directions``)
+
+
+def _common_planes(b: _Bodies, i, j, plane, plane_valid, *, iterations: int, support_edges: int, crosses: int):
+    """The Fast Common Plane of the pairs (i, j) [S], warm-started from ``plane`` [S,3] where
+    ``plane_valid`` [S]: ``fcp.fcp_pair``'s dict (normal [S,3], gap [S] m, ...)."""
+    sh = b.shape
+    return jax.vmap(lambda *a: fcp_pair(*a, iterations=iterations, support_edges=support_edges, crosses=crosses))(
+        b.X[i], sh.vertex_mask[i], b.N[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i],
+        b.X[j], sh.vertex_mask[j], b.N[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j],
+        b.x[i], b.x[j], plane, plane_valid,
+        (sh.edge_direction[i], sh.direction_edge[i], sh.direction_mask[i], b.vdir[i]),
+        (sh.edge_direction[j], sh.direction_edge[j], sh.direction_mask[j], b.vdir[j]),
+    )
+
+
+def _pair_points(b: _Bodies, config: BlockConfig, i, j, n, gap, slack: float = 0.0) -> PairContacts:
+    """:func:`pair_contacts` of the pairs (i, j) [S] for their normals n [S,3] and gaps [S] (m)."""
+    sh = b.shape
+    return jax.vmap(lambda *a: pair_contacts(*a, tol_rel=config.inside_tolerance, edge_contacts=config.edge_contacts,
+                                             slack=slack, crossing_edges=config.crossing_slots))(
+        b.X[i], sh.vertex_mask[i], b.N[i], b.D[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i], sh.radius[i],
+        b.X[j], sh.vertex_mask[j], b.N[j], b.D[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j], sh.radius[j],
+        n, gap)
+
+
+def _law_loads(law: ContactLaw, params: BlockParams, dt, b: _Bodies, i, j, n, pts, depth, active, n_points, history):
+    """The contact law at the points of the pairs (i, j) [S] and the pairs' loads.
+
+    Args:
+      law: ``BlockConfig.law``.  dt: s.  n: [S,3] unit normals i -> j.  pts: [S,L,3] m world
+        points; depth: [S,L] m; active: [S,L] bool; n_points: [S] int32, each pair's active points
+        (the law shares the pair's damping among them); history: [S,L,3] the law's slots.
+    Returns:
+      ``(f_n [S,L] N, f_t [S,L,3] N, history [S,L,3], F_j [S,3] N, T_j [S,3] N m, T_i [S,3] N m)``:
+      per point the forces on j and the new history slot (zeros at inactive points); per pair the
+      force on j and the torques on j and i about their centroids (i gets ``-F_j``).
+    """
+    m_red = 1.0 / jnp.maximum(b.inv_m[i] + b.inv_m[j], 1e-30)  # [S] kg
+    n_act = jnp.maximum(n_points.astype(pts.dtype), 1.0)
+    ri = pts - b.x[i][:, None, :]
+    rj = pts - b.x[j][:, None, :]
+    vi = b.v[i][:, None, :] + jnp.cross(b.omega[i][:, None, :], ri)
+    vj = b.v[j][:, None, :] + jnp.cross(b.omega[j][:, None, :], rj)
+    nn = n[:, None, :]
+    res = law(ContactPoint(depth=depth, normal=nn, velocity=vj - vi, reduced_mass=m_red[:, None],
+                           pair_points=n_act[:, None]), history, params, dt)
+    fn = jnp.where(active, res.normal_force, 0.0)
+    ft = jnp.where(active[..., None], res.tangential_force, 0.0)
+    history = jnp.where(active[..., None], res.history, 0.0)
+    F = fn[..., None] * nn + ft  # on j, [S,L,3]
+    return fn, ft, history, jnp.sum(F, 1), jnp.sum(jnp.cross(rj, F), 1), -jnp.sum(jnp.cross(ri, F), 1)
+
+
+def _joint_water_loads(b: _Bodies, params: BlockParams, config: BlockConfig, gravity, i, j, mask, n, gap,
+                       pts, active):
+    """The hydrostatic load of the pairs' (i, j) [S] contact patches (``BlockConfig.joint_water``).
+
+    Args:
+      gravity: [3] m/s^2.  mask: [S] bool.  n: [S,3] unit normals i -> j; gap: [S] m.
+      pts, active: [S,C,3] m, [S,C] the pairs' contact points (the patch without an aperture).
+    Returns:
+      dict: ``Fj``, ``Tj``, ``Ti`` [S,3] (N, N m: the load on j, the torques on j and i about their
+      centroids), ``near_overflow`` [S] (the near patch's crossing-edge overflow), and the
+      diagnostics ``joint_water_force`` [S,3], ``joint_points``, ``joint_active``, ``joint_count``.
+    """
+    t1, t2 = jax.vmap(_tangent_basis)(n)
+    ap = config.joint_aperture
+    if ap > 0:  # the patch of the near contact, faded out over the aperture
+        near = _pair_points(b, config, i, j, n, gap, slack=0.5 * ap)
+        wpts, wact = near.points, near.active & mask[:, None]
+        near_overflow = near.edge_overflow & mask
+        s_gap = jnp.clip(gap / ap, 0.0, 1.0)
+        fade = 1.0 - s_gap * s_gap * (3.0 - 2.0 * s_gap)
+    else:
+        wpts, wact, fade = pts, active, jnp.ones_like(gap)
+        near_overflow = jnp.zeros_like(mask)
+    n_wact = jnp.sum(wact.astype(jnp.int32), 1)
+    patch = _active_slots(wact, config.joint_patch_points)  # overflow flagged by contact_forces
+    wpts, wact = _take_slots(wpts, patch), _take_slots(wact, patch)
+    Fw, fw, mw = jax.vmap(lambda *a: joint_water_load(
+        *a, level=params.joint_water_level, density=params.joint_water_density, gravity=gravity))(
+            wpts, wact, n, t1, t2)
+    Fw, fw, mw = Fw * fade[:, None], fw * fade, mw * fade[:, None]
+    return dict(Fj=Fw, Tj=jnp.cross(mw - fw[:, None] * b.x[j], n), Ti=-jnp.cross(mw - fw[:, None] * b.x[i], n),
+                near_overflow=near_overflow, joint_water_force=Fw, joint_points=wpts, joint_active=wact,
+                joint_count=n_wact)
+
+
 def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, *, dt, gravity=None,
                    return_info: bool = False):
     """Contact forces and torques on every block at the current poses.
 
     Args:
-      state, params, config: the blocks.  dt: s, the step the shear springs advance over.
+      state, params, config: the blocks.  dt: s, the step the law's history advances over.
       gravity: [3] m/s^2, needed when ``config.joint_water`` (the joints' hydrostatic pressure,
         ``joint_water``); ignored otherwise.
       return_info: also return a dict of per-pair/per-slot diagnostics.
     Returns:
       ``(force [B,3] N, torque [B,3] N m, history ContactHistory, status int32)`` -- forces ON each
-      block, torques about its centroid, world frame; plus ``info`` when asked.
+      block, torques about its centroid, world frame; the history for ``state.history`` of the
+      next step; plus ``info`` when asked.
     """
     B = config.n_blocks
     sh = state.shape
     f = state.x.dtype
-    if state.shear.shape[1] != config.history_slots:  # trace time: the shapes are static
-        raise ValueError(f"contact_forces: the state's shear history has {state.shear.shape[1]} slots per pair, "
+    old = state.history
+    if old.shear.shape[1] != config.history_slots:  # trace time: the shapes are static
+        raise ValueError(f"contact_forces: the state's shear history has {old.shear.shape[1]} slots per pair, "
                          f"config.history_slots is {config.history_slots} (law_slots / crossing_edges changed): "
                          "refit it with rockjax.blocks.fit_history(config, state)")
     Xw = world_vertices(state)
     Nw, Dw = world_planes(state)
     pairs, mask, status = candidate_pairs(config, Xw, sh.vertex_mask)
-    old = ContactHistory(state.pairs, state.pair_mask, state.plane, state.plane_valid, state.shear,
-                         state.contact_feature)
     if pairs_are_static(config):
         hist = ContactHistory(pairs, mask, old.plane, old.plane_valid & mask, old.shear,
                               jnp.where(mask[:, None], old.contact_feature, -1))
@@ -408,9 +485,6 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
         hist = _remap(old, pairs, mask, B)
     dyn = jnp.asarray([m == Motion.DYNAMIC for m in config.motion])
     m = block_mass(state, params)
-    inv_m = jnp.where(dyn, 1.0 / m, 0.0)
-    kn, ks = params.normal_stiffness, params.shear_stiffness
-    zeta = params.damping_ratio
     if config.joint_water:
         if gravity is None:
             raise ValueError("contact_forces: config.joint_water needs gravity=")
@@ -426,75 +500,28 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     # which edge directions touch each vertex: shape only, built once per block (not per pair and round)
     vdir = jax.vmap(lambda e, em, g: vertex_directions(e, em, sh.vertex_mask.shape[1], g, n_dir))(
         sh.edges, sh.edge_mask, sh.edge_direction)  # [B, V, nD]
+    bodies = _Bodies(Xw, Nw, Dw, sh, state.x, state.v, state.omega, jnp.where(dyn, 1.0 / m, 0.0), vdir)
 
     def pair_forces(i, j, mask, plane, plane_valid, shear, feature_old):
-        """FCP, contact points and the contact law of the pairs (i, j) [S] (a segment of the
-        buffer): per-pair forces on j and torques on i and j, the new shear history, diagnostics."""
-        fcp = jax.vmap(lambda *a: fcp_pair(*a, iterations=iterations, support_edges=support_edges,
-                                           crosses=crosses))(
-            Xw[i], sh.vertex_mask[i], Nw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i],
-            Xw[j], sh.vertex_mask[j], Nw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j],
-            state.x[i], state.x[j], plane, plane_valid,
-            (sh.edge_direction[i], sh.direction_edge[i], sh.direction_mask[i], vdir[i]),
-            (sh.edge_direction[j], sh.direction_edge[j], sh.direction_mask[j], vdir[j]),
-        )
+        """Common plane, contact points and contact law of the pairs (i, j) [S] (a segment of the
+        buffer): per-pair forces on j and torques on i and j, the new history, diagnostics."""
+        fcp = _common_planes(bodies, i, j, plane, plane_valid, iterations=iterations,
+                             support_edges=support_edges, crosses=crosses)
         n = fcp["normal"]
-        geometry = (
-            Xw[i], sh.vertex_mask[i], Nw[i], Dw[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i], sh.radius[i],
-            Xw[j], sh.vertex_mask[j], Nw[j], Dw[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j], sh.radius[j],
-            n, fcp["gap"],
-        )
-
-        def points_of_pairs(slack=0.0):
-            return jax.vmap(lambda *a: pair_contacts(*a, tol_rel=config.inside_tolerance,
-                                                     edge_contacts=config.edge_contacts, slack=slack,
-                                                     crossing_edges=config.crossing_slots))(*geometry)
-
-        pc = points_of_pairs()
-        pts_all, feature_all = pc.points, pc.feature
+        pc = _pair_points(bodies, config, i, j, n, fcp["gap"])
         active_all = pc.active & mask[:, None]
         depth_all = jnp.where(active_all, pc.depth, 0.0)
-        edge_overflow = pc.edge_overflow & mask
         n_points = jnp.sum(active_all.astype(jnp.int32), 1)
         # the law runs over the pair's active slots only (gathered to the front, in slot order)
         slot = _active_slots(active_all, config.law_slots)
-        pts, depth, active, feature = (_take_slots(a, slot) for a in (pts_all, depth_all, active_all, feature_all))
+        pts, depth, active, feature = (_take_slots(a, slot) for a in (pc.points, depth_all, active_all, pc.feature))
         feature = jnp.where(active, feature, -1)
-        # each point's shear spring from the last step's slot holding the same feature (one-hot:
-        # features are unique within a pair; none: a new contact, no spring)
+        # each point's history slot from the last step's slot holding the same feature (one-hot:
+        # features are unique within a pair; none: a new contact, zeros)
         same = (feature[:, :, None] == feature_old[:, None, :]) & (feature[:, :, None] >= 0)
         shear = jnp.einsum("skm,smc->skc", same.astype(f), shear)
-
-        # ---- contact law ----
-        m_red = 1.0 / jnp.maximum(inv_m[i] + inv_m[j], 1e-30)  # [S]
-        # per-point dashpots share the pair's critical damping: n points of stiffness k and
-        # c = 2 zeta sqrt(k m_red / n) give the pair's translational mode the ratio zeta
-        n_act = jnp.maximum(n_points.astype(f), 1.0)
-        cn = 2.0 * zeta * jnp.sqrt(kn * m_red / n_act)[:, None]
-        ct = 2.0 * zeta * jnp.sqrt(ks * m_red / n_act)[:, None]
-        ri = pts - state.x[i][:, None, :]
-        rj = pts - state.x[j][:, None, :]
-        vi = state.v[i][:, None, :] + jnp.cross(state.omega[i][:, None, :], ri)
-        vj = state.v[j][:, None, :] + jnp.cross(state.omega[j][:, None, :], rj)
-        vrel = vj - vi
-        nn = n[:, None, :]
-        vn = jnp.sum(vrel * nn, -1)
-        fn = kn * depth + cn * jnp.maximum(-vn, 0.0)
-        fn = jnp.where(active, fn, 0.0)
-        vt = vrel - vn[..., None] * nn
-        u = shear
-        u = u - jnp.sum(u * nn, -1, keepdims=True) * nn
-        u = u + vt * dt
-        ft = -ks * u - ct[..., None] * vt
-        cap = fn * jnp.tan(params.friction_angle) + params.cohesion
-        fmag = safe_norm(ft)
-        slip = fmag > cap
-        scale = jnp.where(slip, cap / jnp.where(slip, fmag, 1.0), 1.0)
-        ft_c = ft * scale[..., None]
-        u_new = jnp.where(slip[..., None], -ft_c / jnp.where(ks > 0, ks, 1.0), u)
-        ft_c = jnp.where(active[..., None], ft_c, 0.0)
-        u_new = jnp.where(active[..., None], u_new, 0.0)
-        F = fn[..., None] * nn + ft_c  # on j, [S,slots,3]
+        fn, ft, shear, Fj, Tj, Ti = _law_loads(config.law, params, dt, bodies, i, j, n, pts, depth, active,
+                                               n_points, shear)
 
         def per_slot(a):  # [S, law slots, ...] -> [S, contact slots, ...] (zeros at inactive slots)
             if slot is None:
@@ -504,32 +531,15 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
 
         out = dict(normal=n, gap=fcp["gap"], fcp_changes=fcp["changes"],
                    support_overflow=fcp["support_overflow"] & mask, cross_overflow=fcp["cross_overflow"] & mask,
-                   points=pts_all, depth=depth_all,
-                   active=active_all, feature=feature_all, n_points=n_points, edge_overflow=edge_overflow,
-                   normal_force=per_slot(fn), tangential_force=per_slot(ft_c), shear=u_new, contact_feature=feature,
-                   Fj=jnp.sum(F, 1), Tj=jnp.sum(jnp.cross(rj, F), 1), Ti=-jnp.sum(jnp.cross(ri, F), 1))
+                   points=pc.points, depth=depth_all, active=active_all, feature=pc.feature, n_points=n_points,
+                   edge_overflow=pc.edge_overflow & mask, normal_force=per_slot(fn), tangential_force=per_slot(ft),
+                   shear=shear, contact_feature=feature, Fj=Fj, Tj=Tj, Ti=Ti)
         if config.joint_water:
-            t1, t2 = jax.vmap(_tangent_basis)(n)
-            ap = config.joint_aperture
-            if ap > 0:  # the patch of the near contact, faded out over the aperture
-                near = points_of_pairs(slack=0.5 * ap)
-                wpts, wact = near.points, near.active & mask[:, None]
-                out["edge_overflow"] = out["edge_overflow"] | (near.edge_overflow & mask)
-                s_gap = jnp.clip(fcp["gap"] / ap, 0.0, 1.0)
-                fade = 1.0 - s_gap * s_gap * (3.0 - 2.0 * s_gap)
-            else:
-                wpts, wact, fade = pts_all, active_all, jnp.ones_like(fcp["gap"])
-            n_wact = jnp.sum(wact.astype(jnp.int32), 1)
-            patch = _active_slots(wact, config.joint_patch_points)  # overflow flagged below
-            wpts, wact = _take_slots(wpts, patch), _take_slots(wact, patch)
-            Fw, fw, mw = jax.vmap(lambda *a: joint_water_load(
-                *a, level=params.joint_water_level, density=params.joint_water_density, gravity=gvec))(
-                    wpts, wact, n, t1, t2)
-            Fw, fw, mw = Fw * fade[:, None], fw * fade, mw * fade[:, None]
-            out["Fj"] = out["Fj"] + Fw
-            out["Tj"] = out["Tj"] + jnp.cross(mw - fw[:, None] * state.x[j], n)
-            out["Ti"] = out["Ti"] - jnp.cross(mw - fw[:, None] * state.x[i], n)
-            out.update(joint_water_force=Fw, joint_points=wpts, joint_active=wact, joint_count=n_wact)
+            w = _joint_water_loads(bodies, params, config, gvec, i, j, mask, n, fcp["gap"], pc.points, active_all)
+            out["edge_overflow"] = out["edge_overflow"] | w.pop("near_overflow")
+            for k in ("Fj", "Tj", "Ti"):
+                out[k] = out[k] + w.pop(k)
+            out.update(w)
         return out
 
     i, j = pairs[:, 0], pairs[:, 1]

@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..types import Status
-from .contact import contact_forces, with_history
+from .contact import contact_forces
 from .model import BlockConfig, BlockParams, BlockState, stable_dt_jax
 from .rotation import quat_integrate, quat_matrix
 
@@ -69,7 +69,7 @@ def advance_blocks(state: BlockState, params: BlockParams, config: BlockConfig, 
       BLOCK_PENETRATION and NON_FINITE.
     """
     force, torque, hist, status = contact_forces(state, params, config, dt=dt, gravity=gravity)
-    state = with_history(state, hist)
+    state = state.replace(history=hist)
     f = state.x.dtype
     gravity = jnp.asarray(gravity, f)
     if external_force is not None:

@@ -1,10 +1,11 @@
 """The block model: static ``BlockConfig``, calibratable ``BlockParams``, ``BlockShape`` / ``BlockState``.
 
-This module owns the data layout of the explicit 3D-DDA rock blocks and the host-side scene
+This module owns the data layout of the explicit 3D-DDA rock blocks (the contact history a
+state carries from step to step included, :class:`ContactHistory`) and the host-side scene
 builder :func:`make_blocks` (validation of every input, defaults, the stable time step of seed
 Eq 8), plus small pure helpers on the state (world vertices and planes, mass, inertia,
-energies).  Contacts live in ``fcp`` / ``contact`` / ``broadphase``; the time step in
-``integrate``.
+energies).  Contacts live in ``fcp`` / ``contact`` / ``broadphase``, the contact law in ``laws``;
+the time step in ``integrate``.
 
 Units: SI (m, kg, s, N, rad).  z points up.  Orientation ``q = (w, x, y, z)`` maps body to world.
 """
@@ -23,6 +24,7 @@ import numpy as np
 
 from ..types import _pytree_dataclass, float_dtype
 from .geometry import ConvexPolyhedron, pack
+from .laws import ContactLaw, PenaltyCoulomb
 from .rotation import quat_matrix
 
 __all__ = [
@@ -32,6 +34,7 @@ __all__ = [
     "BlockParams",
     "BlockShape",
     "BlockState",
+    "ContactHistory",
     "make_blocks",
     "stable_dt",
     "stable_dt_jax",
@@ -124,7 +127,7 @@ class BlockConfig:
         cures by doubling it.
       law_slots: the contact law runs over this many slots per pair, into which the pair's active
         contact points are gathered (in slot order); the shear history is kept per law slot with
-        the point's contact feature (``BlockState.contact_feature``) and follows the feature from
+        the point's contact feature (``ContactHistory.contact_feature``) and follows the feature from
         step to step: a box pair has up to 16 points (of its 81 ``contact_slots``). More set
         ``Status.CONTACT_POINT_OVERFLOW``, which the driver cures by doubling it. 0, or >=
         ``contact_slots``: the law runs over every slot (``history_slots``).
@@ -142,6 +145,8 @@ class BlockConfig:
         contact points, zero forces, its plane kept. Such pairs are gathered behind the others,
         so segments of them are skipped (a settled rock pile: ~100 of its ~130 candidate pairs).
         False: every candidate pair runs the FCP every step.
+      law: the contact law (``laws.ContactLaw``; default ``laws.PenaltyCoulomb()``): the maths of
+        the force at a contact point, a static choice; its constants are ``BlockParams``.
     """
 
     n_blocks: int
@@ -172,8 +177,12 @@ class BlockConfig:
     support_edges: int = 0
     fcp_crosses: int = 0
     skip_separated: bool = True
+    law: ContactLaw = PenaltyCoulomb()
 
     def __post_init__(self):
+        if not isinstance(self.law, ContactLaw):
+            raise ValueError(f"BlockConfig.law must be a rockjax.blocks.laws.ContactLaw (e.g. PenaltyCoulomb()), "
+                             f"got {self.law!r}")
         if len(self.motion) != self.n_blocks:
             raise ValueError(f"BlockConfig.motion has {len(self.motion)} entries, n_blocks={self.n_blocks}")
         if self.pair_capacity < 1:
@@ -315,6 +324,32 @@ class BlockShape:
 
 
 @_pytree_dataclass
+class ContactHistory:
+    """What the contacts carry from one step to the next (``BlockState.history``; written by
+    ``contact.contact_forces``).
+
+    Attributes:
+      pairs: [P,2] int32 candidate pairs (i < j); pair_mask: [P] bool.
+      plane: [P,3] last common-plane normal per pair (from i to j), the FCP warm start;
+        plane_valid: [P] bool.
+      shear: [P,L,3] the contact law's history slot per law slot (world frame; ``laws``), L =
+        ``BlockConfig.history_slots``: for ``PenaltyCoulomb`` the tangential spring's
+        displacement (m).
+      contact_feature: [P,L] int32, the contact feature of each law slot's point (-1: none): a
+        vertex of j inside i (its index v), a vertex of i inside j (V + v), the crossing of edge a
+        of i with edge b of j (2 V + a nE + b), the fallback point (2 V + nE^2); the history slot
+        of a feature carries over to the next step wherever that feature's point is gathered.
+    """
+
+    pairs: jax.Array
+    pair_mask: jax.Array
+    plane: jax.Array
+    plane_valid: jax.Array
+    shear: jax.Array
+    contact_feature: jax.Array
+
+
+@_pytree_dataclass
 class BlockState:
     """Block poses, velocities and contact history.
 
@@ -324,15 +359,8 @@ class BlockState:
       v: [B,3] m/s and omega: [B,3] rad/s (world frame): leapfrog mid-step velocities
         (seed Eq 6: after a step from t to t+dt they are the velocities of t+dt/2).
       x0: [B,3], q0: [B,4] reference pose of FIXED / PRESCRIBED blocks.
-      pairs: [P,2] int32 candidate pairs (i < j); pair_mask: [P] bool.
-      plane: [P,3] last common-plane normal per pair (from i to j), the FCP warm start;
-        plane_valid: [P] bool.
-      shear: [P,L,3] m, tangential spring displacement per law slot (world frame), L =
-        ``BlockConfig.history_slots``;
-      contact_feature: [P,L] int32, the contact feature of each law slot's point (-1: none): a
-        vertex of j inside i (its index v), a vertex of i inside j (V + v), the crossing of edge a
-        of i with edge b of j (2 V + a nE + b), the fallback point (2 V + nE^2); the shear spring
-        of a feature carries over to the next step wherever that feature's point is gathered.
+      history: :class:`ContactHistory`, the candidate pairs, their planes and the contact law's
+        per-point history.
     """
 
     shape: BlockShape
@@ -342,12 +370,7 @@ class BlockState:
     omega: jax.Array
     x0: jax.Array
     q0: jax.Array
-    pairs: jax.Array
-    pair_mask: jax.Array
-    plane: jax.Array
-    plane_valid: jax.Array
-    shear: jax.Array
-    contact_feature: jax.Array
+    history: ContactHistory
 
 
 # ------------------------------------------------------------------------------------------
@@ -538,6 +561,7 @@ def make_blocks(
     support_edges: Optional[int] = None,
     fcp_crosses: Optional[int] = None,
     skip_separated: bool = True,
+    law: Optional[ContactLaw] = None,
 ):
     """Build ``(BlockConfig, BlockParams, BlockState)`` from convex polyhedra, validating every input.
 
@@ -575,6 +599,7 @@ def make_blocks(
         crossing_edges, support_edges, fcp_crosses, skip_separated: see :class:`BlockConfig`;
         ``support_edges`` defaults to the most edge directions touching one face of any of the
         blocks, ``fcp_crosses`` to 128 (0, every slot, where ``support_edges^2`` is not more).
+      law: the contact law (``rockjax.blocks.laws``); default ``PenaltyCoulomb()``.
 
     Returns:
       ``(config, params, state)``; state arrays in float32 (float64 under ``jax_enable_x64``).
@@ -677,6 +702,10 @@ def make_blocks(
     jw_rho = _scalar("joint_water_density", joint_water_density, lo=0.0, lo_open=True, unit="kg/m^3")
     if int(grid_cell_capacity) < 1:
         raise ValueError("grid_cell_capacity must be >= 1")
+    if law is None:
+        law = PenaltyCoulomb()
+    if not isinstance(law, ContactLaw):
+        raise ValueError(f"law must be a rockjax.blocks.laws.ContactLaw (e.g. PenaltyCoulomb()), got {law!r}")
 
     if support_edges is None:
         support_edges = max(p.support_directions() for p in polys)
@@ -719,6 +748,7 @@ def make_blocks(
         support_edges=int(support_edges),
         fcp_crosses=int(fcp_crosses),
         skip_separated=bool(skip_separated),
+        law=law,
     )
 
     f = float_dtype()
@@ -783,12 +813,14 @@ def _initial_state(config: BlockConfig, shape: BlockShape, pos, ori, vel, om) ->
         omega=jnp.asarray(om, f),
         x0=jnp.asarray(pos, f),
         q0=jnp.asarray(ori, f),
-        pairs=jnp.asarray(pairs),
-        pair_mask=jnp.asarray(mask),
-        plane=jnp.zeros((P, 3), f),
-        plane_valid=jnp.zeros(P, bool),
-        shear=jnp.zeros((P, L, 3), f),
-        contact_feature=jnp.full((P, L), -1, jnp.int32),
+        history=ContactHistory(
+            pairs=jnp.asarray(pairs),
+            pair_mask=jnp.asarray(mask),
+            plane=jnp.zeros((P, 3), f),
+            plane_valid=jnp.zeros(P, bool),
+            shear=jnp.zeros((P, L, 3), f),
+            contact_feature=jnp.full((P, L), -1, jnp.int32),
+        ),
     )
 
 
@@ -810,11 +842,13 @@ def fit_history(config: BlockConfig, state: BlockState) -> BlockState:
     """Host: the state with its shear history shaped for ``config.history_slots`` (after the
     driver grew ``law_slots`` or ``crossing_edges``): the slots kept, empty ones added (or the
     last ones dropped, if it shrank). Call between steps."""
-    L, old = config.history_slots, state.shear.shape[1]
+    h = state.history
+    L, old = config.history_slots, h.shear.shape[1]
     if L == old:
         return state
     if L < old:
-        return state.replace(shear=state.shear[:, :L], contact_feature=state.contact_feature[:, :L])
+        return state.replace(history=h.replace(shear=h.shear[:, :L], contact_feature=h.contact_feature[:, :L]))
     pad = L - old
-    return state.replace(shear=jnp.pad(state.shear, ((0, 0), (0, pad), (0, 0))),
-                         contact_feature=jnp.pad(state.contact_feature, ((0, 0), (0, pad)), constant_values=-1))
+    return state.replace(history=h.replace(
+        shear=jnp.pad(h.shear, ((0, 0), (0, pad), (0, 0))),
+        contact_feature=jnp.pad(h.contact_feature, ((0, 0), (0, pad)), constant_values=-1)))
