@@ -18,10 +18,9 @@ from typing import Sequence
 import jax.numpy as jnp
 import numpy as np
 
-from ..sph.kernels import SUPPORT_FACTOR
 from ..sph.schemes import WCSPH, FluidScheme
 from ..types import Config, Coupling, CouplingParams, State, float_dtype
-from .base import GRAVITY, Scene, _ceil8, _positive, as_scheme, make_state, particle_layout, stable_dt, water_params
+from .base import GRAVITY, Resolution, Scene, _ceil8, _positive, as_scheme, make_state, particle_layout, stable_dt, water_params
 from .block_sampling import sample_block_particles, submerged_pair_count
 from .shapes import fill, plane, shell
 
@@ -124,10 +123,10 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     scheme = as_scheme(scheme)
     if c0 is None:
         raise ValueError(f"{name}: c0 (speed of sound) is required for a scene with water")
-    params = water_params(dx=dx, c0=c0, h_factor=h_factor, alpha=alpha, nu=nu, delta=delta,
-                          wall_viscosity=wall_viscosity)
+    res = Resolution(dx, h_factor)
+    params = water_params(res, c0=c0, alpha=alpha, nu=nu, delta=delta, wall_viscosity=wall_viscosity)
     params = params.replace(blocks=bparams)
-    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    layers = res.wall_layers
     wall_x = np.zeros((0, 3)) if wall_x is None else np.asarray(wall_x, float)
     body = np.full(len(wall_x), -1)
     x_body = np.zeros((len(wall_x), 3))
@@ -149,9 +148,8 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         x_body = np.concatenate([x_body] + xb)
     if coupling != Coupling.NONE:
         params = params.replace(coupling=coupling_params(dx=dx, c0=c0, coupling=coupling))
-    L = particle_layout(dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=domain_lo, domain_hi=domain_hi,
-                        periodic=periodic, surface_z=still_level, c0=c0, scheme=scheme, h_factor=h_factor,
-                        skin_factor=skin_factor)
+    L = particle_layout(res, fluid_x=fluid_x, wall_x=wall_x, domain_lo=domain_lo, domain_hi=domain_hi,
+                        periodic=periodic, surface_z=still_level, c0=c0, scheme=scheme, skin_factor=skin_factor)
     grid, cutoff, skin, k, cell_cap, x, kind, vol, rho = (L[n] for n in (
         "grid", "cutoff", "skin", "neighbour_capacity", "cell_capacity", "x", "kind", "vol", "rho"))
     if coupling == Coupling.BOUNDARY_PARTICLES:  # each block particle: its share of the block's shell
@@ -279,7 +277,7 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
         plane([1, 0, 0], [x_right, 0, 0]), plane([-1, 0, 0], [x_left, 0, 0]),
     ]
     water_hs = container + [plane([0, 0, 1], [0, 0, 0])]
-    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    layers = Resolution(dx, h_factor).wall_layers
     # lattice aligned so that the floor (z = -depth) and the side walls fall on cell faces
     lo = np.array([x_left, 0.0, -water_depth])
     n_up = math.ceil((z_top + water_depth) / dx)
@@ -335,7 +333,7 @@ def floating_box(*, dx: float = 0.02, box_size=(0.2, 0.2, 0.1), box_density: flo
     if lx > L - 6 * dx or ly > W - 6 * dx:
         raise ValueError("floating_box: the box must leave >= 3 dx of water on each side; enlarge tank_size")
     blocks = _blocks_api()
-    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    layers = Resolution(dx, h_factor).wall_layers
     draft_eq = box_density / 1000.0 * lz
     draft0 = 0.5 * draft_eq if initial_draft is None else float(initial_draft)
     box = blocks.geometry.box(lx, ly, lz)
@@ -366,7 +364,7 @@ def block_drop(*, dx: float = 0.02, box_size=(0.1, 0.1, 0.1), box_density: float
     lx, ly, lz = (float(s) for s in box_size)
     L, W = (float(s) for s in tank_size)
     blocks = _blocks_api()
-    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    layers = Resolution(dx, h_factor).wall_layers
     box = blocks.geometry.box(lx, ly, lz)
     pos = np.array([0.5 * L, 0.5 * W, water_depth + drop_height + 0.5 * lz])
     floor = blocks.geometry.slab(L, W, 0.1)
@@ -416,14 +414,14 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     """
     dx = _positive("piston_wavemaker: dx", dx)
     if flume_width is None:
-        flume_width = math.ceil(2 * (2 * h_factor + 0.6) - 1e-9) * dx if periodic_y else 0.1
+        flume_width = Resolution(dx, h_factor).narrowest_period(skin_factor=0.6) if periodic_y else 0.1
     for nm, v in (("stroke", stroke), ("period", period), ("water_depth", water_depth),
                   ("flat_length", flat_length), ("beach_slope", beach_slope), ("flume_width", flume_width)):
         _positive(f"piston_wavemaker: {nm}", v)
     if not (math.isfinite(ramp_periods) and ramp_periods >= 0):
         raise ValueError(f"piston_wavemaker: ramp_periods must be a finite number >= 0 (got {ramp_periods})")
     blocks = _blocks_api()
-    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    layers = Resolution(dx, h_factor).wall_layers
     rise = 1.5 * water_depth
     beach_length = rise / beach_slope if beach_length is None else _positive("beach_length", beach_length)
     x_end = flat_length + beach_length

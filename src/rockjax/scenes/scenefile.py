@@ -126,10 +126,9 @@ from typing import Any, NoReturn
 import numpy as np
 
 from ..sph import schemes as _schemes
-from ..sph.kernels import SUPPORT_FACTOR
 from ..sph.terms import names as _term_names
 from ..types import Coupling
-from .base import GRAVITY, Scene, fluid_scene, lattice
+from .base import GRAVITY, Resolution, Scene, fluid_scene, lattice
 
 try:  # Python >= 3.11
     import tomllib as _toml
@@ -794,12 +793,13 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
 
     # ---- domain and lattice -------------------------------------------------------------------
     dx = sph["dx"]
-    layers = int(math.ceil(SUPPORT_FACTOR * sph["h_factor"]))
+    layers = 0  # wall layers: water only
     if has_water:
         if domain is None:
             ctx.fail_table(("water", 0), "water needs a [domain] (the tank: lo, hi)")
         if dx is None:
             ctx.fail_table(("sph",), "a scene with water needs the particle spacing: `dx = ...` (m) in [sph]")
+        layers = Resolution(dx, sph["h_factor"]).wall_layers
     if domain is not None:
         lo = np.asarray(domain["lo"], float)
         hi = np.asarray(domain["hi"], float)
