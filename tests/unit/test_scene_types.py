@@ -29,3 +29,22 @@ def test_resolution_derives_h_support_and_layers():
 def test_resolution_refuses_by_name(field, kwargs):
     with pytest.raises(ValueError, match=rf"^{field} must be a positive finite number"):
         Resolution(**kwargs)
+
+
+def test_particle_layout_is_typed():
+    import numpy as np
+
+    from rockjax.scenes.base import ParticleLayout, Resolution, lattice, particle_layout, tank_walls
+    from rockjax.sph.schemes import WCSPH
+
+    res = Resolution(0.05, 1.3)
+    fluid = lattice([0, 0, 0], [0.3, 0.3, 0.2], res.dx)
+    walls = tank_walls([0, 0, 0], [0.3, 0.3, 0.4], res.dx, res.wall_layers)
+    pad = res.wall_layers * res.dx
+    L = particle_layout(res, fluid_x=fluid, wall_x=walls, domain_lo=[-pad] * 3, domain_hi=[0.3 + pad, 0.3 + pad, 0.6],
+                        periodic=(False, False, False), surface_z=0.2, c0=20.0, scheme=WCSPH(), skin_factor=0.3)
+    assert isinstance(L, ParticleLayout)
+    assert L.cutoff == res.support and L.skin == 0.3 * res.dx
+    assert L.x.shape == (len(fluid) + len(walls), 3) and L.kind.shape == L.vol.shape == L.rho.shape == (len(L.x),)
+    assert np.all(L.rho[: len(fluid)] >= 1000.0)  # hydrostatic below the surface
+    assert min(L.neighbour_capacity, L.cell_capacity, L.wall_pair_capacity) > 0

@@ -22,7 +22,7 @@ from ..types import Config, FluidParams, GridSpec, Kind, NeighbourList, Params, 
 
 __all__ = [
     "Scene", "Resolution", "lattice", "tank_walls", "water_params", "stable_dt", "check_params", "make_state",
-    "fluid_scene", "particle_layout", "GRAVITY", "empty_neighbours", "as_scheme",
+    "fluid_scene", "particle_layout", "ParticleLayout", "GRAVITY", "empty_neighbours", "as_scheme",
 ]
 
 GRAVITY = 9.81
@@ -306,12 +306,35 @@ def _capacities(list_radius_dx: float, run_length: int) -> tuple[int, int]:
     return k, c
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class ParticleLayout:
+    """Host arrays and static sizes of a scene's water + wall particles (``particle_layout``).
+
+    ``x`` [N, 3] m (water first, then walls), ``kind`` [N] int32 (``Kind``), ``vol`` [N] m^3 (dx^3),
+    ``rho`` [N] kg/m^3; ``grid`` (``GridSpec``), ``cutoff`` (the kernel support) and ``skin`` [m];
+    the initial list capacities ``neighbour_capacity``, ``cell_capacity`` and
+    ``wall_pair_capacity`` (the driver grows them when a run needs more). The fields go into
+    ``Config`` and ``make_state`` under the same names.
+    """
+
+    grid: GridSpec
+    cutoff: float
+    skin: float
+    neighbour_capacity: int
+    cell_capacity: int
+    wall_pair_capacity: int
+    x: np.ndarray
+    kind: np.ndarray
+    vol: np.ndarray
+    rho: np.ndarray
+
+
 def particle_layout(resolution: Resolution, *, fluid_x: np.ndarray, wall_x: np.ndarray, domain_lo, domain_hi, periodic,
-                    surface_z: float | None, c0: float, scheme: FluidScheme, skin_factor: float) -> dict:
+                    surface_z: float | None, c0: float, scheme: FluidScheme, skin_factor: float) -> ParticleLayout:
     """Host arrays and static sizes for water + wall particles at ``resolution`` (spacing dx [m],
     kernel support = the cutoff).
 
-    Returns a dict: ``grid``, ``cutoff`` and ``skin`` [m], ``neighbour_capacity``,
+    Returns a ``ParticleLayout``: ``grid``, ``cutoff`` and ``skin`` [m], ``neighbour_capacity``,
     ``cell_capacity`` and ``wall_pair_capacity``, and the particle arrays ``x`` [N, 3], ``kind``, ``vol`` (dx^3) and ``rho``
     (hydrostatic below ``surface_z`` where the scheme integrates its density, ``scheme.initial_density``; else rho0).
     """
@@ -332,8 +355,9 @@ def particle_layout(resolution: Resolution, *, fluid_x: np.ndarray, wall_x: np.n
     k_now, cell_now = initial_list_sizes(fluid_x, x, grid, cutoff + skin)
     k = max(k, _ceil8(1.05 * k_now))
     cell_cap = max(cell_cap, _ceil8(1.05 * cell_now))
-    return dict(grid=grid, cutoff=cutoff, skin=skin, neighbour_capacity=k, cell_capacity=cell_cap, x=x, kind=kind,
-                vol=vol, rho=rho, wall_pair_capacity=wall_pair_capacity(fluid_x, wall_x, cutoff + skin))
+    return ParticleLayout(grid=grid, cutoff=cutoff, skin=skin, neighbour_capacity=k, cell_capacity=cell_cap,
+                          wall_pair_capacity=wall_pair_capacity(fluid_x, wall_x, cutoff + skin), x=x, kind=kind,
+                          vol=vol, rho=rho)
 
 
 def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domain_lo, domain_hi,
@@ -345,14 +369,12 @@ def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray
     params = water_params(res, c0=c0, alpha=alpha, nu=nu, delta=delta, wall_viscosity=wall_viscosity)
     L = particle_layout(res, fluid_x=fluid_x, wall_x=wall_x, domain_lo=domain_lo, domain_hi=domain_hi,
                         periodic=periodic, surface_z=surface_z, c0=c0, scheme=scheme, skin_factor=skin_factor)
-    grid, cutoff, skin, k, cell_cap, x, kind, vol, rho = (L[n] for n in (
-        "grid", "cutoff", "skin", "neighbour_capacity", "cell_capacity", "x", "kind", "vol", "rho"))
     dt = stable_dt(params, scheme=scheme, cfl=cfl)
     config = Config(
-        n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
-        rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap,
-        wall_pair_capacity=L["wall_pair_capacity"], scheme=scheme, cfl=cfl,
+        n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=L.grid, cutoff=L.cutoff, skin=L.skin,
+        rebuild_every=rebuild_every, neighbour_capacity=L.neighbour_capacity, cell_capacity=L.cell_capacity,
+        wall_pair_capacity=L.wall_pair_capacity, scheme=scheme, cfl=cfl,
     )
-    state = make_state(config=config, x=x, kind=kind, vol=vol, rho=rho)
+    state = make_state(config=config, x=L.x, kind=L.kind, vol=L.vol, rho=L.rho)
     meta = dict(meta, name=name, dx=dx)
     return Scene(config=config, params=params, state=state, meta=meta)

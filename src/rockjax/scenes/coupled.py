@@ -150,8 +150,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         params = params.replace(coupling=coupling_params(dx=dx, c0=c0, coupling=coupling))
     L = particle_layout(res, fluid_x=fluid_x, wall_x=wall_x, domain_lo=domain_lo, domain_hi=domain_hi,
                         periodic=periodic, surface_z=still_level, c0=c0, scheme=scheme, skin_factor=skin_factor)
-    grid, cutoff, skin, k, cell_cap, x, kind, vol, rho = (L[n] for n in (
-        "grid", "cutoff", "skin", "neighbour_capacity", "cell_capacity", "x", "kind", "vol", "rho"))
+    vol = L.vol
     if coupling == Coupling.BOUNDARY_PARTICLES:  # each block particle: its share of the block's shell
         vol = vol.copy()
         vol[len(fluid_x) + n_fixed_walls:] = np.concatenate(vb)
@@ -159,8 +158,8 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     if coupling == Coupling.BOUNDARY_PARTICLES:
         # the pairs each block has fully under still water, +25 % for compressed or disordered
         # water (the driver grows the sub-list if a scene needs more)
-        pairs_b = sum(submerged_pair_count(polyhedra[b], pts_b, dx, cutoff + skin) for b, pts_b in zip(moving, xb))
-        body_pair_capacity = min(_ceil8(1.25 * pairs_b), L["wall_pair_capacity"])
+        pairs_b = sum(submerged_pair_count(polyhedra[b], pts_b, dx, L.cutoff + L.skin) for b, pts_b in zip(moving, xb))
+        body_pair_capacity = min(_ceil8(1.25 * pairs_b), L.wall_pair_capacity)
         n_block_particles = len(wall_x) - n_fixed_walls  # the walls' tail (sorted apart at each list build)
     dt = stable_dt(params, scheme=scheme, cfl=cfl)
     dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
@@ -176,12 +175,13 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
     dt = min(dt, dt_blocks)
     meta["block_normal_stiffness"] = float(bparams.normal_stiffness)
-    config = Config(n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
-                    rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap,
-                    wall_pair_capacity=L["wall_pair_capacity"], body_pair_capacity=body_pair_capacity,
+    config = Config(n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=L.grid, cutoff=L.cutoff, skin=L.skin,
+                    rebuild_every=rebuild_every, neighbour_capacity=L.neighbour_capacity,
+                    cell_capacity=L.cell_capacity, wall_pair_capacity=L.wall_pair_capacity,
+                    body_pair_capacity=body_pair_capacity,
                     n_block_particles=n_block_particles, scheme=scheme, cfl=cfl, blocks=bconfig, coupling=coupling,
                     coupling_guard=bool(coupling_guard), guard_fixed=bool(guard_fixed))
-    state = make_state(config=config, x=x, kind=kind, vol=vol, rho=rho)
+    state = make_state(config=config, x=L.x, kind=L.kind, vol=vol, rho=L.rho)
     if coupling == Coupling.BOUNDARY_PARTICLES:
         body_all = np.concatenate([np.full(len(fluid_x), -1), body]).astype(np.int32)
         xb_all = np.concatenate([np.zeros((len(fluid_x), 3)), x_body])
