@@ -1,5 +1,7 @@
-"""The scene builders' typed hand-overs (``rockjax.scenes.base``): ``Resolution`` decides h, the
-kernel support and the wall layers from dx and h_factor, and refuses bad values by name."""
+"""The scene builders' typed hand-overs (``rockjax.scenes.base``, ``.meta``): ``Resolution`` decides h,
+the kernel support and the wall layers from dx and h_factor, and refuses bad values by name;
+``particle_layout`` returns a ``ParticleLayout``; ``SceneMeta`` types the observers' keys and reads
+as the dict it replaced (same keys, order and JSON)."""
 
 from __future__ import annotations
 
@@ -48,3 +50,35 @@ def test_particle_layout_is_typed():
     assert L.x.shape == (len(fluid) + len(walls), 3) and L.kind.shape == L.vol.shape == L.rho.shape == (len(L.x),)
     assert np.all(L.rho[: len(fluid)] >= 1000.0)  # hydrostatic below the surface
     assert min(L.neighbour_capacity, L.cell_capacity, L.wall_pair_capacity) > 0
+
+
+def test_scene_meta_reads_as_the_dict_it_replaced():
+    import json
+
+    from rockjax.io.hdf5 import _jsonable
+    from rockjax.scenes.meta import Gauges, RunupSlope, SceneMeta
+
+    d = dict(water_depth=0.3, still_level=0.3, runup_slope=dict(point=[1.0, 0.2, 0.0], normal=[0.0, 0.0, 1.0], x_min=None),
+             gauges=dict(names=["a"], xy=[[0.5, 0.2]], bottom_z=[0.0]), name="s", dx=0.02)
+    m = SceneMeta.from_dict(d)
+    assert m.name == "s" and m.dx == 0.02 and m.still_level == 0.3 and m.extra == {"water_depth": 0.3}
+    assert isinstance(m.gauges, Gauges) and m.gauges.xy == [[0.5, 0.2]] and isinstance(m.runup_slope, RunupSlope)
+    assert list(m) == list(d) and m == d and m.as_dict() == d and dict(m)["gauges"] == d["gauges"]
+    assert m["gauges"]["names"] == ["a"] and m.get("runup_slope").get("x_min") is None and "depth" not in m
+    assert json.dumps(_jsonable(m)) == json.dumps(_jsonable(d))
+    m2 = m.with_items(scene_file="f.toml")
+    assert list(m2)[-1] == "scene_file" and m2["scene_file"] == "f.toml" and "scene_file" not in m
+    bare = SceneMeta.from_dict(dict(name="b", dx=None))
+    assert "gauges" not in bare and "still_level" not in bare and bare.get("gauges") is None and list(bare) == ["name", "dx"]
+    with pytest.raises(ValueError, match="gauges"):
+        SceneMeta.from_dict(dict(gauges=dict(names=["a"], where=[0, 0])))
+
+
+def test_scenes_carry_scene_meta():
+    from rockjax.scenes import SceneMeta, hydrostatic_tank
+
+    scene = hydrostatic_tank(dx=0.04)
+    assert isinstance(scene.meta, SceneMeta) and scene.name == "hydrostatic_tank" and scene.meta.dx == 0.04
+    assert scene.meta.extra["depth"] == 0.2 and list(scene.meta)[-2:] == ["name", "dx"]
+    plain = scene.replace(meta=dict(scene.meta, note=1))  # a dict is converted
+    assert isinstance(plain.meta, SceneMeta) and plain.meta.extra["note"] == 1

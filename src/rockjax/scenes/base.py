@@ -11,7 +11,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
-from typing import Any
 
 import jax.numpy as jnp
 import numpy as np
@@ -19,6 +18,7 @@ import numpy as np
 from ..sph.kernels import SUPPORT_FACTOR
 from ..sph.schemes import FluidScheme, from_names
 from ..types import Config, FluidParams, GridSpec, Kind, NeighbourList, Params, Particles, State, float_dtype
+from .meta import SceneMeta
 
 __all__ = [
     "Scene", "Resolution", "lattice", "tank_walls", "water_params", "stable_dt", "check_params", "make_state",
@@ -32,18 +32,24 @@ GRAVITY = 9.81
 class Scene:
     """A runnable scene: static config, calibratable params, initial state and metadata.
 
-    ``meta`` is a plain dict with at least ``name`` and ``dx`` plus scene-specific geometry
-    (e.g. the dam-break column size), in SI units.
+    ``meta`` is a ``SceneMeta``: ``name``, ``dx``, what the observers read (``still_level``,
+    ``gauges``, ``runup_slope``) and scene-specific geometry (e.g. the dam-break column size) in
+    ``extra``, SI units; it reads as the mapping it replaced (``meta["dx"]``). A dict given here is
+    converted (``SceneMeta.from_dict``).
     """
 
     config: Config
     params: Params
     state: State
-    meta: dict[str, Any]
+    meta: SceneMeta
+
+    def __post_init__(self):
+        if not isinstance(self.meta, SceneMeta):
+            object.__setattr__(self, "meta", SceneMeta.from_dict(self.meta))
 
     @property
     def name(self) -> str:
-        return str(self.meta.get("name", "scene"))
+        return str(self.meta.name)
 
     def replace(self, **changes) -> "Scene":
         return dataclasses.replace(self, **changes)
@@ -376,5 +382,4 @@ def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray
         wall_pair_capacity=L.wall_pair_capacity, scheme=scheme, cfl=cfl,
     )
     state = make_state(config=config, x=L.x, kind=L.kind, vol=L.vol, rho=L.rho)
-    meta = dict(meta, name=name, dx=dx)
-    return Scene(config=config, params=params, state=state, meta=meta)
+    return Scene(config=config, params=params, state=state, meta=SceneMeta.from_dict(dict(meta, name=name, dx=dx)))

@@ -22,6 +22,7 @@ from ..sph.schemes import WCSPH, FluidScheme
 from ..types import Config, Coupling, CouplingParams, State, float_dtype
 from .base import GRAVITY, Resolution, Scene, _ceil8, _positive, as_scheme, make_state, particle_layout, stable_dt, water_params
 from .block_sampling import sample_block_particles, submerged_pair_count
+from .meta import SceneMeta
 from .shapes import fill, plane, shell
 
 __all__ = ["coupled_scene", "sliding_wedge", "floating_box", "block_drop", "piston_wavemaker", "block_on_incline",
@@ -114,7 +115,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         config = Config(n_fluid=0, n_wall=0, dt=dt, grid=None, cutoff=0.0, skin=0.0, rebuild_every=1, blocks=bconfig)
         state = State(step=jnp.zeros((), jnp.int32), particles=None, nbrs=None, status=jnp.zeros((), jnp.int32),
                       blocks=bstate)
-        return Scene(config=config, params=params, state=state, meta=meta)
+        return Scene(config=config, params=params, state=state, meta=SceneMeta.from_dict(meta))
 
     dx = _positive(f"{name}: dx", dx)
     if not moving:
@@ -193,7 +194,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         zero = jnp.zeros((B, 3), float_dtype())
         state = state.replace(coupling=CouplingState(force=zero, torque=zero))
     state = state.replace(blocks=bstate)
-    return Scene(config=config, params=params, state=state, meta=meta)
+    return Scene(config=config, params=params, state=state, meta=SceneMeta.from_dict(meta))
 
 
 def _flume_walls_and_water(*, dx, layers, halfspaces, water_halfspaces, lo, hi):

@@ -511,7 +511,7 @@ def load(path_or_text, *, dx: float | None = None, scheme: str | None = None,
         scene = _load_general(ctx, doc, overrides)
     run_t = _table(ctx, ("run",), doc.get("run", {}), _SCHEMA["run"])
     out_t = _table(ctx, ("output",), doc.get("output", {}), _SCHEMA["output"])
-    scene = scene.replace(meta=dict(scene.meta, scene_file=source))
+    scene = scene.replace(meta=scene.meta.with_items(scene_file=source))
     return SceneFile(scene=scene, run=RunOptions(t_end=run_t["t_end"], frame_dt=out_t["frame_dt"], out=out_t["out"]),
                      source=source)
 
