@@ -82,3 +82,19 @@ def test_scenes_carry_scene_meta():
     assert scene.meta.extra["depth"] == 0.2 and list(scene.meta)[-2:] == ["name", "dx"]
     plain = scene.replace(meta=dict(scene.meta, note=1))  # a dict is converted
     assert isinstance(plain.meta, SceneMeta) and plain.meta.extra["note"] == 1
+
+
+def test_scene_file_parses_to_a_typed_spec_then_builds():
+    import numpy as np
+
+    from rockjax.scenes import scenefile as sf
+    from rockjax.types import Coupling
+
+    source, text, base = sf._read("examples/box_off_ramp.toml")
+    spec = sf.parse(sf._Ctx(source, text, base), sf._parse(source, text), {"dx": 0.05})
+    assert isinstance(spec, sf.SceneSpec) and spec.name == "box_off_ramp" and spec.sph.dx == 0.05
+    assert isinstance(spec.domain, sf.DomainSpec) and spec.coupling.method == Coupling.PENALTY
+    assert [f.name for f in spec.fixed] == ["ramp", "beach", "floor"] and len(spec.moving) == 1
+    assert [g.name for g in spec.gauges] == ["near", "far"] and spec.runup.x_min == 1.7
+    scene, loaded = sf.build(spec), sf.load("examples/box_off_ramp.toml", dx=0.05).scene
+    assert scene.config == loaded.config and np.array_equal(scene.state.particles.x, loaded.state.particles.x)
