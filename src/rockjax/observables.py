@@ -158,28 +158,32 @@ def impact_velocity(times, block_x, block_v, *, block, still_level, bottom_offse
     return np.asarray(block_v)[hit[0], block]
 
 
-def scene_observer(meta: dict, *, band: float | None = None, temperature: float | None = None):
+def scene_observer(meta, *, band: float | None = None, temperature: float | None = None):
     """``observe(state, params, config) -> dict`` for ``simulate(observe=...)`` from a scene's meta:
     ``gauges`` [M] m (free-surface elevation at ``meta["gauges"]``), ``runup`` (hard) and
     ``smooth_runup`` [m] on ``meta["runup_slope"]`` (band 2 dx, temperature dx/4 by default),
     the block centroids ``block_x`` [B, 3] m when the scene has blocks, and the energy budget [J]:
     ``fluid_kinetic``, ``fluid_potential``, ``fluid_elastic`` (``energies``), ``block_kinetic``,
-    ``block_potential`` (moving blocks). Keys absent from meta are skipped."""
-    dx = float(meta.get("dx") or 0.0)
-    still = float(meta.get("still_level", 0.0))
+    ``block_potential`` (moving blocks). ``meta``: a ``scenes.SceneMeta`` (``scene.meta``) or a dict
+    of its keys (e.g. a run's meta read back from HDF5). Gauges and run-up absent from meta are skipped."""
+    from .scenes.meta import SceneMeta
+
+    meta = SceneMeta.from_dict(meta)
+    dx = float(meta.dx or 0.0)
+    still = float(meta.still_level if meta.still_level is not None else 0.0)
     band = 2.0 * dx if band is None else band
     temperature = 0.25 * dx if temperature is None else temperature
 
     def observe(state: State, params: Params, config: Config) -> dict:
         out = {}
-        g = meta.get("gauges")
+        g = meta.gauges
         if g is not None and state.particles is not None:
-            out["gauges"] = gauge_elevation(state, params, config, jnp.asarray(g["xy"]),
-                                            bottom_z=jnp.asarray(g["bottom_z"]), still_level=still)
-        sl = meta.get("runup_slope")
+            out["gauges"] = gauge_elevation(state, params, config, jnp.asarray(g.xy),
+                                            bottom_z=jnp.asarray(g.bottom_z), still_level=still)
+        sl = meta.runup_slope
         if sl is not None and state.particles is not None:
-            kw = dict(slope_point=jnp.asarray(sl["point"]), slope_normal=jnp.asarray(sl["normal"]), band=band,
-                      still_level=still, x_min=sl.get("x_min"))
+            kw = dict(slope_point=jnp.asarray(sl.point), slope_normal=jnp.asarray(sl.normal), band=band,
+                      still_level=still, x_min=sl.x_min)
             out["runup"] = runup(state, **kw)
             out["smooth_runup"] = smooth_runup(state, temperature=temperature, **kw)
         if state.particles is not None and params.fluid is not None:

@@ -23,6 +23,7 @@ Every per-frame array of ``driver.host_frame`` becomes one extendable dataset ``
 
 from __future__ import annotations
 
+import collections.abc
 import dataclasses
 import enum
 import json
@@ -38,12 +39,12 @@ __all__ = ["Writer", "Run", "read", "config_to_json"]
 def _jsonable(obj: Any):
     if isinstance(obj, enum.Enum):
         return obj.value
+    if isinstance(obj, collections.abc.Mapping):  # dicts and the scene's meta (scenes.meta)
+        return {str(k): _jsonable(v) for k, v in obj.items()}
     if dataclasses.is_dataclass(obj):
         return {f.name: _jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
     if isinstance(obj, (tuple, list)):
         return [_jsonable(o) for o in obj]
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (np.generic,)):
         return obj.item()
     return obj

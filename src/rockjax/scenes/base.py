@@ -1,5 +1,6 @@
-"""What every scene builder shares: the ``Scene`` bundle, particle lattices, tank walls,
-water parameters, the host-side time step, and the host-side checks of params against config.
+"""What every scene builder shares: the ``Scene`` bundle, the ``Resolution`` (dx and h), particle
+lattices, tank walls, water parameters, the host-side time step, and the host-side checks of params
+against config.
 
 Everything here runs on the host with numpy; the arrays become ``jax.Array`` only in
 ``make_state``.
@@ -9,7 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any
+import numbers
 
 import jax.numpy as jnp
 import numpy as np
@@ -17,10 +18,11 @@ import numpy as np
 from ..sph.kernels import SUPPORT_FACTOR
 from ..sph.schemes import FluidScheme, from_names
 from ..types import Config, FluidParams, GridSpec, Kind, NeighbourList, Params, Particles, State, float_dtype
+from .meta import SceneMeta
 
 __all__ = [
-    "Scene", "lattice", "tank_walls", "water_params", "stable_dt", "check_params", "make_state",
-    "fluid_scene", "particle_layout", "GRAVITY", "empty_neighbours", "as_scheme",
+    "Scene", "Resolution", "lattice", "tank_walls", "water_params", "stable_dt", "check_params", "make_state",
+    "fluid_scene", "particle_layout", "ParticleLayout", "GRAVITY", "empty_neighbours", "as_scheme",
 ]
 
 GRAVITY = 9.81
@@ -30,18 +32,24 @@ GRAVITY = 9.81
 class Scene:
     """A runnable scene: static config, calibratable params, initial state and metadata.
 
-    ``meta`` is a plain dict with at least ``name`` and ``dx`` plus scene-specific geometry
-    (e.g. the dam-break column size), in SI units.
+    ``meta`` is a ``SceneMeta``: ``name``, ``dx``, what the observers read (``still_level``,
+    ``gauges``, ``runup_slope``) and scene-specific geometry (e.g. the dam-break column size) in
+    ``extra``, SI units; it reads as the mapping it replaced (``meta["dx"]``). A dict given here is
+    converted (``SceneMeta.from_dict``).
     """
 
     config: Config
     params: Params
     state: State
-    meta: dict[str, Any]
+    meta: SceneMeta
+
+    def __post_init__(self):
+        if not isinstance(self.meta, SceneMeta):
+            object.__setattr__(self, "meta", SceneMeta.from_dict(self.meta))
 
     @property
     def name(self) -> str:
-        return str(self.meta.get("name", "scene"))
+        return str(self.meta.name)
 
     def replace(self, **changes) -> "Scene":
         return dataclasses.replace(self, **changes)
@@ -57,6 +65,52 @@ def _positive(name: str, value: float) -> float:
     if not (value > 0 and math.isfinite(value)):
         raise ValueError(f"{name} must be a positive finite number in SI units (got {value})")
     return value
+
+
+@dataclasses.dataclass(frozen=True)
+class Resolution:
+    """The particle spacing ``dx`` [m] and the smoothing length ``h = h_factor dx`` [m] of a scene.
+
+    The one place a scene decides h and what follows from it: ``FluidParams.h`` (``water_params``),
+    the kernel support ``Config.cutoff`` (``particle_layout``) and the number of wall particle
+    layers (enough to fill the support behind a wall face). Builders make one from their ``dx`` and
+    ``h_factor`` arguments and read the rest from it.
+
+    Raises ValueError naming ``dx`` or ``h_factor`` when either is not a positive finite number.
+    """
+
+    dx: float
+    h_factor: float = 1.3
+
+    def __post_init__(self):
+        for name in ("dx", "h_factor"):
+            value = getattr(self, name)
+            ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+            if not (ok and float(value) > 0 and math.isfinite(float(value))):
+                raise ValueError(f"{name} must be a positive finite number (got {value!r})")
+            object.__setattr__(self, name, float(value))
+
+    @property
+    def h(self) -> float:
+        """Smoothing length [m]: ``h_factor dx``."""
+        return self.h_factor * self.dx
+
+    @property
+    def support(self) -> float:
+        """Kernel support radius [m]: ``SUPPORT_FACTOR h`` (every kernel vanishes beyond it); the
+        scenes' ``Config.cutoff``."""
+        return SUPPORT_FACTOR * self.h_factor * self.dx
+
+    @property
+    def wall_layers(self) -> int:
+        """Wall particle layers behind a wall face: ``ceil(SUPPORT_FACTOR h_factor)``, so that a
+        fluid particle at the face has its whole kernel support filled."""
+        return int(math.ceil(SUPPORT_FACTOR * self.h_factor))
+
+    def narrowest_period(self, skin_factor: float) -> float:
+        """The narrowest periodic length [m] the neighbour search allows with a Verlet skin of
+        ``skin_factor`` dx: twice the search radius ``support + skin``, rounded up to whole dx."""
+        return math.ceil(2 * (SUPPORT_FACTOR * self.h_factor + skin_factor) - 1e-9) * self.dx
 
 
 def lattice(lo, hi, dx: float) -> np.ndarray:
@@ -90,13 +144,13 @@ def tank_walls(lo, hi, dx: float, layers: int, *, periodic=(False, False, False)
     return pts[~inside]
 
 
-def water_params(*, dx: float, c0: float, h_factor: float = 1.3, alpha: float = 0.02, nu: float = 1e-6,
+def water_params(resolution: Resolution, *, c0: float, alpha: float = 0.02, nu: float = 1e-6,
                  delta: float = 0.1, rho0: float = 1000.0, gravity: float = GRAVITY,
                  wall_viscosity: float = 1.0) -> Params:
-    """Params for water at resolution ``dx`` [m]: h = h_factor dx, speed of sound c0 [m/s]."""
+    """Params for water at ``resolution``: ``FluidParams.h = resolution.h`` [m], speed of sound c0 [m/s]."""
     dt = float_dtype()
     fluid = FluidParams(
-        rho0=jnp.asarray(rho0, dt), c0=jnp.asarray(c0, dt), h=jnp.asarray(h_factor * dx, dt),
+        rho0=jnp.asarray(rho0, dt), c0=jnp.asarray(c0, dt), h=jnp.asarray(resolution.h, dt),
         alpha=jnp.asarray(alpha, dt), nu=jnp.asarray(nu, dt), delta=jnp.asarray(delta, dt),
         wall_viscosity=jnp.asarray(wall_viscosity, dt),
     )
@@ -248,7 +302,7 @@ def initial_list_sizes(fluid_x: np.ndarray, x: np.ndarray, grid: GridSpec, radiu
     return k_need, int(math.ceil(best / range_ratio(sg)))
 
 
-def _capacities(h_factor: float, list_radius_dx: float, run_length: int) -> tuple[int, int]:
+def _capacities(list_radius_dx: float, run_length: int) -> tuple[int, int]:
     """Neighbour, wall-row and cell-run capacities for a regular lattice (the driver regrows)."""
     n_sphere = 4.0 / 3.0 * math.pi * list_radius_dx**3
     k = int(math.ceil(1.15 * n_sphere / 8.0) * 8)
@@ -258,15 +312,40 @@ def _capacities(h_factor: float, list_radius_dx: float, run_length: int) -> tupl
     return k, c
 
 
-def particle_layout(*, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domain_lo, domain_hi, periodic,
-                    surface_z: float | None, c0: float, scheme: FluidScheme, h_factor: float, skin_factor: float) -> dict:
-    """Host arrays and static sizes for water + wall particles at spacing ``dx`` [m].
+@dataclasses.dataclass(frozen=True, eq=False)
+class ParticleLayout:
+    """Host arrays and static sizes of a scene's water + wall particles (``particle_layout``).
 
-    Returns a dict: ``grid``, ``cutoff`` and ``skin`` [m], ``neighbour_capacity``,
+    ``x`` [N, 3] m (water first, then walls), ``kind`` [N] int32 (``Kind``), ``vol`` [N] m^3 (dx^3),
+    ``rho`` [N] kg/m^3; ``grid`` (``GridSpec``), ``cutoff`` (the kernel support) and ``skin`` [m];
+    the initial list capacities ``neighbour_capacity``, ``cell_capacity`` and
+    ``wall_pair_capacity`` (the driver grows them when a run needs more). The fields go into
+    ``Config`` and ``make_state`` under the same names.
+    """
+
+    grid: GridSpec
+    cutoff: float
+    skin: float
+    neighbour_capacity: int
+    cell_capacity: int
+    wall_pair_capacity: int
+    x: np.ndarray
+    kind: np.ndarray
+    vol: np.ndarray
+    rho: np.ndarray
+
+
+def particle_layout(resolution: Resolution, *, fluid_x: np.ndarray, wall_x: np.ndarray, domain_lo, domain_hi, periodic,
+                    surface_z: float | None, c0: float, scheme: FluidScheme, skin_factor: float) -> ParticleLayout:
+    """Host arrays and static sizes for water + wall particles at ``resolution`` (spacing dx [m],
+    kernel support = the cutoff).
+
+    Returns a ``ParticleLayout``: ``grid``, ``cutoff`` and ``skin`` [m], ``neighbour_capacity``,
     ``cell_capacity`` and ``wall_pair_capacity``, and the particle arrays ``x`` [N, 3], ``kind``, ``vol`` (dx^3) and ``rho``
     (hydrostatic below ``surface_z`` where the scheme integrates its density, ``scheme.initial_density``; else rho0).
     """
-    cutoff = SUPPORT_FACTOR * h_factor * dx
+    dx = resolution.dx
+    cutoff = resolution.support
     skin = skin_factor * dx
     grid = GridSpec.covering(domain_lo, domain_hi, min_cell=cutoff + skin, periodic=periodic)
     x = np.concatenate([fluid_x, wall_x], axis=0)
@@ -278,31 +357,29 @@ def particle_layout(*, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domai
         still = scheme.initial_density(1000.0 * GRAVITY * depth, rho0=1000.0, c0=c0)
         rho = rho if still is None else still
     run_length = 1 if (periodic[0] or grid.shape[0] < 3) else 3
-    k, cell_cap = _capacities(h_factor, (cutoff + skin) / dx, run_length)
+    k, cell_cap = _capacities((cutoff + skin) / dx, run_length)
     k_now, cell_now = initial_list_sizes(fluid_x, x, grid, cutoff + skin)
     k = max(k, _ceil8(1.05 * k_now))
     cell_cap = max(cell_cap, _ceil8(1.05 * cell_now))
-    return dict(grid=grid, cutoff=cutoff, skin=skin, neighbour_capacity=k, cell_capacity=cell_cap, x=x, kind=kind,
-                vol=vol, rho=rho, wall_pair_capacity=wall_pair_capacity(fluid_x, wall_x, cutoff + skin))
+    return ParticleLayout(grid=grid, cutoff=cutoff, skin=skin, neighbour_capacity=k, cell_capacity=cell_cap,
+                          wall_pair_capacity=wall_pair_capacity(fluid_x, wall_x, cutoff + skin), x=x, kind=kind,
+                          vol=vol, rho=rho)
 
 
 def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray, domain_lo, domain_hi,
                 periodic, surface_z: float | None, c0: float, scheme: FluidScheme, h_factor: float, alpha: float, nu: float, delta: float, skin_factor: float,
                 rebuild_every: int, cfl: float, meta: dict, wall_viscosity: float = 1.0) -> Scene:
-    """Assemble a fluid-only scene from host point sets (used by the built-in builders)."""
-    params = water_params(dx=dx, c0=c0, h_factor=h_factor, alpha=alpha, nu=nu, delta=delta,
-                          wall_viscosity=wall_viscosity)
-    L = particle_layout(dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=domain_lo, domain_hi=domain_hi,
-                        periodic=periodic, surface_z=surface_z, c0=c0, scheme=scheme, h_factor=h_factor,
-                        skin_factor=skin_factor)
-    grid, cutoff, skin, k, cell_cap, x, kind, vol, rho = (L[n] for n in (
-        "grid", "cutoff", "skin", "neighbour_capacity", "cell_capacity", "x", "kind", "vol", "rho"))
+    """Assemble a fluid-only scene from host point sets (used by the built-in builders);
+    ``dx`` [m] and ``h_factor`` make its ``Resolution``."""
+    res = Resolution(dx, h_factor)
+    params = water_params(res, c0=c0, alpha=alpha, nu=nu, delta=delta, wall_viscosity=wall_viscosity)
+    L = particle_layout(res, fluid_x=fluid_x, wall_x=wall_x, domain_lo=domain_lo, domain_hi=domain_hi,
+                        periodic=periodic, surface_z=surface_z, c0=c0, scheme=scheme, skin_factor=skin_factor)
     dt = stable_dt(params, scheme=scheme, cfl=cfl)
     config = Config(
-        n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
-        rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap,
-        wall_pair_capacity=L["wall_pair_capacity"], scheme=scheme, cfl=cfl,
+        n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=L.grid, cutoff=L.cutoff, skin=L.skin,
+        rebuild_every=rebuild_every, neighbour_capacity=L.neighbour_capacity, cell_capacity=L.cell_capacity,
+        wall_pair_capacity=L.wall_pair_capacity, scheme=scheme, cfl=cfl,
     )
-    state = make_state(config=config, x=x, kind=kind, vol=vol, rho=rho)
-    meta = dict(meta, name=name, dx=dx)
-    return Scene(config=config, params=params, state=state, meta=meta)
+    state = make_state(config=config, x=L.x, kind=L.kind, vol=L.vol, rho=L.rho)
+    return Scene(config=config, params=params, state=state, meta=SceneMeta.from_dict(dict(meta, name=name, dx=dx)))

@@ -18,11 +18,11 @@ from typing import Sequence
 import jax.numpy as jnp
 import numpy as np
 
-from ..sph.kernels import SUPPORT_FACTOR
 from ..sph.schemes import WCSPH, FluidScheme
 from ..types import Config, Coupling, CouplingParams, State, float_dtype
-from .base import GRAVITY, Scene, _ceil8, _positive, as_scheme, make_state, particle_layout, stable_dt, water_params
+from .base import GRAVITY, Resolution, Scene, _ceil8, _positive, as_scheme, make_state, particle_layout, stable_dt, water_params
 from .block_sampling import sample_block_particles, submerged_pair_count
+from .meta import SceneMeta
 from .shapes import fill, plane, shell
 
 __all__ = ["coupled_scene", "sliding_wedge", "floating_box", "block_drop", "piston_wavemaker", "block_on_incline",
@@ -115,7 +115,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         config = Config(n_fluid=0, n_wall=0, dt=dt, grid=None, cutoff=0.0, skin=0.0, rebuild_every=1, blocks=bconfig)
         state = State(step=jnp.zeros((), jnp.int32), particles=None, nbrs=None, status=jnp.zeros((), jnp.int32),
                       blocks=bstate)
-        return Scene(config=config, params=params, state=state, meta=meta)
+        return Scene(config=config, params=params, state=state, meta=SceneMeta.from_dict(meta))
 
     dx = _positive(f"{name}: dx", dx)
     if not moving:
@@ -124,10 +124,10 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     scheme = as_scheme(scheme)
     if c0 is None:
         raise ValueError(f"{name}: c0 (speed of sound) is required for a scene with water")
-    params = water_params(dx=dx, c0=c0, h_factor=h_factor, alpha=alpha, nu=nu, delta=delta,
-                          wall_viscosity=wall_viscosity)
+    res = Resolution(dx, h_factor)
+    params = water_params(res, c0=c0, alpha=alpha, nu=nu, delta=delta, wall_viscosity=wall_viscosity)
     params = params.replace(blocks=bparams)
-    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    layers = res.wall_layers
     wall_x = np.zeros((0, 3)) if wall_x is None else np.asarray(wall_x, float)
     body = np.full(len(wall_x), -1)
     x_body = np.zeros((len(wall_x), 3))
@@ -149,11 +149,9 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         x_body = np.concatenate([x_body] + xb)
     if coupling != Coupling.NONE:
         params = params.replace(coupling=coupling_params(dx=dx, c0=c0, coupling=coupling))
-    L = particle_layout(dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=domain_lo, domain_hi=domain_hi,
-                        periodic=periodic, surface_z=still_level, c0=c0, scheme=scheme, h_factor=h_factor,
-                        skin_factor=skin_factor)
-    grid, cutoff, skin, k, cell_cap, x, kind, vol, rho = (L[n] for n in (
-        "grid", "cutoff", "skin", "neighbour_capacity", "cell_capacity", "x", "kind", "vol", "rho"))
+    L = particle_layout(res, fluid_x=fluid_x, wall_x=wall_x, domain_lo=domain_lo, domain_hi=domain_hi,
+                        periodic=periodic, surface_z=still_level, c0=c0, scheme=scheme, skin_factor=skin_factor)
+    vol = L.vol
     if coupling == Coupling.BOUNDARY_PARTICLES:  # each block particle: its share of the block's shell
         vol = vol.copy()
         vol[len(fluid_x) + n_fixed_walls:] = np.concatenate(vb)
@@ -161,8 +159,8 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     if coupling == Coupling.BOUNDARY_PARTICLES:
         # the pairs each block has fully under still water, +25 % for compressed or disordered
         # water (the driver grows the sub-list if a scene needs more)
-        pairs_b = sum(submerged_pair_count(polyhedra[b], pts_b, dx, cutoff + skin) for b, pts_b in zip(moving, xb))
-        body_pair_capacity = min(_ceil8(1.25 * pairs_b), L["wall_pair_capacity"])
+        pairs_b = sum(submerged_pair_count(polyhedra[b], pts_b, dx, L.cutoff + L.skin) for b, pts_b in zip(moving, xb))
+        body_pair_capacity = min(_ceil8(1.25 * pairs_b), L.wall_pair_capacity)
         n_block_particles = len(wall_x) - n_fixed_walls  # the walls' tail (sorted apart at each list build)
     dt = stable_dt(params, scheme=scheme, cfl=cfl)
     dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
@@ -178,12 +176,13 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
     dt = min(dt, dt_blocks)
     meta["block_normal_stiffness"] = float(bparams.normal_stiffness)
-    config = Config(n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=grid, cutoff=cutoff, skin=skin,
-                    rebuild_every=rebuild_every, neighbour_capacity=k, cell_capacity=cell_cap,
-                    wall_pair_capacity=L["wall_pair_capacity"], body_pair_capacity=body_pair_capacity,
+    config = Config(n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=L.grid, cutoff=L.cutoff, skin=L.skin,
+                    rebuild_every=rebuild_every, neighbour_capacity=L.neighbour_capacity,
+                    cell_capacity=L.cell_capacity, wall_pair_capacity=L.wall_pair_capacity,
+                    body_pair_capacity=body_pair_capacity,
                     n_block_particles=n_block_particles, scheme=scheme, cfl=cfl, blocks=bconfig, coupling=coupling,
                     coupling_guard=bool(coupling_guard), guard_fixed=bool(guard_fixed))
-    state = make_state(config=config, x=x, kind=kind, vol=vol, rho=rho)
+    state = make_state(config=config, x=L.x, kind=L.kind, vol=vol, rho=L.rho)
     if coupling == Coupling.BOUNDARY_PARTICLES:
         body_all = np.concatenate([np.full(len(fluid_x), -1), body]).astype(np.int32)
         xb_all = np.concatenate([np.zeros((len(fluid_x), 3)), x_body])
@@ -195,7 +194,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         zero = jnp.zeros((B, 3), float_dtype())
         state = state.replace(coupling=CouplingState(force=zero, torque=zero))
     state = state.replace(blocks=bstate)
-    return Scene(config=config, params=params, state=state, meta=meta)
+    return Scene(config=config, params=params, state=state, meta=SceneMeta.from_dict(meta))
 
 
 def _flume_walls_and_water(*, dx, layers, halfspaces, water_halfspaces, lo, hi):
@@ -279,7 +278,7 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
         plane([1, 0, 0], [x_right, 0, 0]), plane([-1, 0, 0], [x_left, 0, 0]),
     ]
     water_hs = container + [plane([0, 0, 1], [0, 0, 0])]
-    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    layers = Resolution(dx, h_factor).wall_layers
     # lattice aligned so that the floor (z = -depth) and the side walls fall on cell faces
     lo = np.array([x_left, 0.0, -water_depth])
     n_up = math.ceil((z_top + water_depth) / dx)
@@ -335,7 +334,7 @@ def floating_box(*, dx: float = 0.02, box_size=(0.2, 0.2, 0.1), box_density: flo
     if lx > L - 6 * dx or ly > W - 6 * dx:
         raise ValueError("floating_box: the box must leave >= 3 dx of water on each side; enlarge tank_size")
     blocks = _blocks_api()
-    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    layers = Resolution(dx, h_factor).wall_layers
     draft_eq = box_density / 1000.0 * lz
     draft0 = 0.5 * draft_eq if initial_draft is None else float(initial_draft)
     box = blocks.geometry.box(lx, ly, lz)
@@ -366,7 +365,7 @@ def block_drop(*, dx: float = 0.02, box_size=(0.1, 0.1, 0.1), box_density: float
     lx, ly, lz = (float(s) for s in box_size)
     L, W = (float(s) for s in tank_size)
     blocks = _blocks_api()
-    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    layers = Resolution(dx, h_factor).wall_layers
     box = blocks.geometry.box(lx, ly, lz)
     pos = np.array([0.5 * L, 0.5 * W, water_depth + drop_height + 0.5 * lz])
     floor = blocks.geometry.slab(L, W, 0.1)
@@ -416,14 +415,14 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     """
     dx = _positive("piston_wavemaker: dx", dx)
     if flume_width is None:
-        flume_width = math.ceil(2 * (2 * h_factor + 0.6) - 1e-9) * dx if periodic_y else 0.1
+        flume_width = Resolution(dx, h_factor).narrowest_period(skin_factor=0.6) if periodic_y else 0.1
     for nm, v in (("stroke", stroke), ("period", period), ("water_depth", water_depth),
                   ("flat_length", flat_length), ("beach_slope", beach_slope), ("flume_width", flume_width)):
         _positive(f"piston_wavemaker: {nm}", v)
     if not (math.isfinite(ramp_periods) and ramp_periods >= 0):
         raise ValueError(f"piston_wavemaker: ramp_periods must be a finite number >= 0 (got {ramp_periods})")
     blocks = _blocks_api()
-    layers = int(math.ceil(SUPPORT_FACTOR * h_factor))
+    layers = Resolution(dx, h_factor).wall_layers
     rise = 1.5 * water_depth
     beach_length = rise / beach_slope if beach_length is None else _positive("beach_length", beach_length)
     x_end = flat_length + beach_length

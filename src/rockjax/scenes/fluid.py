@@ -11,13 +11,9 @@ import math
 import numpy as np
 
 from ..sph.schemes import WCSPH, FluidScheme, SeedScheme
-from .base import GRAVITY, Scene, _positive, as_scheme, fluid_scene, lattice, tank_walls
+from .base import GRAVITY, Resolution, Scene, _positive, as_scheme, fluid_scene, lattice, tank_walls
 
 __all__ = ["dam_break", "hydrostatic_tank"]
-
-
-def _wall_layers(h_factor: float) -> int:
-    return int(math.ceil(2.0 * h_factor))
 
 
 def _scheme_defaults(scheme, alpha, nu):
@@ -77,7 +73,7 @@ def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width:
     tank_height = 1.5 * column_height if tank_height is None else _positive("dam_break: tank_height", tank_height)
     scheme, alpha, nu = _scheme_defaults(scheme, alpha, nu)
     c0 = 10.0 * math.sqrt(2 * GRAVITY * column_height) if c0 is None else _positive("dam_break: c0", c0)
-    layers = _wall_layers(h_factor)
+    layers = Resolution(dx, h_factor).wall_layers
     periodic = (False, bool(periodic_y), False)
     lo = np.array([0.0, 0.0, 0.0])
     hi = np.array([tank_length, tank_width, tank_height])
@@ -111,7 +107,7 @@ def hydrostatic_tank(*, dx: float = 0.02, length: float = 0.2, width: float = 0.
         raise ValueError(f"hydrostatic_tank: depth ({depth} m) must hold at least 3 particle layers; use dx <= {depth / 3:.4g} m")
     scheme, alpha, nu = _scheme_defaults(scheme, alpha, nu)
     c0 = 10.0 * math.sqrt(2 * GRAVITY * depth) if c0 is None else _positive("hydrostatic_tank: c0", c0)
-    layers = _wall_layers(h_factor)
+    layers = Resolution(dx, h_factor).wall_layers
     periodic = (bool(periodic_xy), bool(periodic_xy), False)
     lo = np.array([0.0, 0.0, 0.0])
     hi = np.array([length, width, depth + 0.5 * depth])

@@ -3,7 +3,11 @@
 This module owns the scene-file format, its validation (every refusal is a ``ValueError`` that
 names the file, the line, the key and what to change) and its translation onto the scene
 builders (``base.fluid_scene``, ``coupled.coupled_scene`` and the built-in scenes). It builds on
-the host only; nothing here is traced.
+the host only; nothing here is traced. A general scene goes schema -> parse -> spec -> build:
+``_SCHEMA`` lists each table's keys (type, unit, range, default), :func:`parse` checks a document
+against it and returns a :class:`SceneSpec` of typed tables (``DomainSpec``, ``WaterSpec``,
+``FixedSpec``, ``BlockSpec``, ``MaterialsSpec``, ``SphSpec``, ``CouplingSpec``, ``GaugeSpec``,
+``RunupSpec``), and :func:`build` makes the ``Scene``.
 
 Entry points: :func:`load` (``SceneFile``: scene + run options), :func:`load_scene` (the scene),
 :func:`load_builtin` (a built-in scene by name with validated options, as the CLI uses).
@@ -126,10 +130,9 @@ from typing import Any, NoReturn
 import numpy as np
 
 from ..sph import schemes as _schemes
-from ..sph.kernels import SUPPORT_FACTOR
 from ..sph.terms import names as _term_names
 from ..types import Coupling
-from .base import GRAVITY, Scene, fluid_scene, lattice
+from .base import GRAVITY, Resolution, Scene, fluid_scene, lattice
 
 try:  # Python >= 3.11
     import tomllib as _toml
@@ -139,7 +142,9 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10 with tomli install
     except ModuleNotFoundError:
         _toml = None
 
-__all__ = ["RunOptions", "SceneFile", "load", "load_scene", "load_builtin", "builtin_options"]
+__all__ = ["RunOptions", "SceneFile", "load", "load_scene", "load_builtin", "builtin_options", "parse", "build",
+           "SceneSpec", "DomainSpec", "WaterSpec", "FixedSpec", "BlockSpec", "MaterialsSpec", "SphSpec", "CouplingSpec",
+           "GaugeSpec", "RunupSpec"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -512,7 +517,7 @@ def load(path_or_text, *, dx: float | None = None, scheme: str | None = None,
         scene = _load_general(ctx, doc, overrides)
     run_t = _table(ctx, ("run",), doc.get("run", {}), _SCHEMA["run"])
     out_t = _table(ctx, ("output",), doc.get("output", {}), _SCHEMA["output"])
-    scene = scene.replace(meta=dict(scene.meta, scene_file=source))
+    scene = scene.replace(meta=scene.meta.with_items(scene_file=source))
     return SceneFile(scene=scene, run=RunOptions(t_end=run_t["t_end"], frame_dt=out_t["frame_dt"], out=out_t["out"]),
                      source=source)
 
@@ -681,76 +686,183 @@ def _check_type_keys(ctx: _Ctx, path: tuple, data: dict, kind_key: str, kind: st
             ctx.fail_table(path, f"{kind_key} = {kind!r} needs the key `{key}`")
 
 
-def _blocks_of(ctx: _Ctx, doc: dict):
-    """[[block]] -> list of (polyhedron placed at its centroid, entry dict, path)."""
-    from ..blocks import geometry as geo
-    from .meshes import block_from_mesh
+# The general form goes schema -> parse -> spec -> build: ``parse`` checks the document against
+# ``_SCHEMA`` and the rules between tables (every refusal names the key and its line) and returns a
+# ``SceneSpec`` of typed tables; ``build`` turns a spec into a ``Scene`` (lattice, walls, water,
+# blocks) through ``base.fluid_scene`` / ``coupled.coupled_scene``. Refusals that need the geometry
+# (a water region without particles, a block inside fixed geometry, a mesh file that fails) come
+# from ``build``, through the spec's error reporter, with the key and line too.
 
-    raw = doc.get("block", [])
-    if not isinstance(raw, list):
-        ctx.fail_table(("block",), "write blocks as an array of tables: [[block]]")
-    out = []
-    for i, data in enumerate(raw):
-        path = ("block", i)
-        b = _table(ctx, path, data, _SCHEMA["block"])
-        _check_type_keys(ctx, path, data, "shape", b["shape"], _BLOCK_KEYS,
-                         {"box": ("size", "position"), "wedge": ("size", "position"), "mesh": ("file",)})
-        if not np.linalg.norm(b["rotation_axis"]) > 0:
-            ctx.fail(path + ("rotation_axis",), "must be a non-zero vector")
-        if b["shape"] == "box":
-            poly = geo.box(*b["size"])
-        elif b["shape"] == "wedge":
-            poly = geo.wedge(*b["size"])
-        else:
-            try:
-                poly = block_from_mesh(_path_in(ctx, path, b["file"]), hull=b["hull"], scale=b["scale"],
-                                       convexity_tol=b["convexity_tol"])
-            except ValueError as exc:
-                ctx.fail(path + ("file",), str(exc))
-        position = np.asarray(b["position"] if b["position"] is not None else poly.centroid_world, float)
-        R = _rotation(b["rotation_axis"], b["rotation_deg"])
-        placed = geo.ConvexPolyhedron.from_vertices(poly.vertices @ R.T + position)
-        out.append((placed, b, path))
-    return out
+Vec3 = tuple[float, float, float]
 
 
-def _fixed_of(ctx: _Ctx, doc: dict, *, clip_lo, clip_hi, exact_within: float):
-    """[[fixed]] -> list of (FixedSolid, entry dict, path)."""
-    from . import meshes
+@dataclasses.dataclass(frozen=True)
+class DomainSpec:
+    """``[domain]``: the tank box ``lo``..``hi`` [m] (walls on its faces), ``periodic`` axes (no wall
+    on their faces), ``open_top`` (no wall on top)."""
 
-    raw = doc.get("fixed", [])
-    if not isinstance(raw, list):
-        ctx.fail_table(("fixed",), "write fixed geometry as an array of tables: [[fixed]]")
-    out = []
-    for i, data in enumerate(raw):
-        path = ("fixed", i)
-        f = _table(ctx, path, data, _SCHEMA["fixed"])
-        kind = f["type"]
-        _check_type_keys(ctx, path, data, "type", kind, _FIXED_KEYS,
-                         {"box": ("lo", "hi"), "plane": ("point", "normal"), "mesh": ("file",)})
-        name = f["name"] or f"fixed #{i + 1} ({kind})"
-        try:
-            if kind == "box":
-                if not all(h > l for l, h in zip(f["lo"], f["hi"])):
-                    ctx.fail(path + ("hi",), f"must exceed lo on every axis (lo {list(f['lo'])}, hi {list(f['hi'])})")
-                solid = meshes.fixed_box(f["lo"], f["hi"], name=name)
-            elif kind == "plane":
-                if not np.linalg.norm(f["normal"]) > 0:
-                    ctx.fail(path + ("normal",), "must be a non-zero vector (pointing out of the solid, into the water)")
-                if clip_lo is None:
-                    ctx.fail_table(path, "type = 'plane' needs a [domain] to bound it")
-                solid = meshes.fixed_plane(f["point"], f["normal"], clip_lo=clip_lo, clip_hi=clip_hi, name=name)
-            else:
-                solid = meshes.fixed_from_mesh(_path_in(ctx, path, f["file"]), scale=f["scale"], offset=f["offset"],
-                                               convexity_tol=f["convexity_tol"], name=name,
-                                               exact_within=exact_within)
-        except ValueError as exc:
-            if str(exc).startswith(ctx.source):
-                raise
-            key = {"box": "lo", "plane": "point", "mesh": "file"}[kind]
-            ctx.fail(path + (key,), str(exc))
-        out.append((solid, f, path))
-    return out
+    lo: Vec3
+    hi: Vec3
+    periodic: tuple[bool, bool, bool] = (False, False, False)
+    open_top: bool = True
+
+
+@dataclasses.dataclass(frozen=True)
+class WaterSpec:
+    """One ``[[water]]`` region: the box ``lo``..``hi`` [m] (None: the domain's), below ``level``
+    [m] if given, and inside ``planes`` (``(point, normal)`` pairs, normal out of the water)."""
+
+    lo: Vec3 | None
+    hi: Vec3 | None
+    level: float | None
+    planes: tuple
+    path: tuple  # ("water", i): where the file defines it
+
+
+@dataclasses.dataclass(frozen=True)
+class FixedSpec:
+    """One ``[[fixed]]`` solid: ``type`` box (``lo``, ``hi``), plane (``point``, ``normal`` [m]) or mesh
+    (``file``, a path resolved against the scene file's folder; ``scale``, ``offset`` [m],
+    ``convexity_tol``); ``block``: also a FIXED block when the scene has moving blocks."""
+
+    type: str
+    name: str
+    lo: Vec3 | None
+    hi: Vec3 | None
+    point: Vec3 | None
+    normal: Vec3 | None
+    file: str | None
+    scale: float
+    offset: Vec3
+    convexity_tol: float
+    block: bool
+    path: tuple
+
+
+@dataclasses.dataclass(frozen=True)
+class BlockSpec:
+    """One ``[[block]]``: ``shape`` box / wedge (``size`` [m]) or mesh (``file``, ``hull``, ``scale``,
+    ``convexity_tol``), placed with its centroid at ``position`` [m] (None: the mesh's own) after a
+    rotation of ``rotation_deg`` about ``rotation_axis``; ``velocity`` [m/s], ``density`` [kg/m^3],
+    ``motion`` ("dynamic" or "fixed")."""
+
+    shape: str
+    name: str | None
+    size: Vec3 | None
+    file: str | None
+    hull: bool
+    scale: float
+    convexity_tol: float
+    position: Vec3 | None
+    rotation_axis: Vec3
+    rotation_deg: float
+    velocity: Vec3
+    density: float
+    motion: str
+    path: tuple
+
+
+@dataclasses.dataclass(frozen=True)
+class MaterialsSpec:
+    """``[materials]``: the block contacts (``blocks.make_blocks``); None: the builder's default."""
+
+    friction_angle_deg: float
+    cohesion: float
+    normal_stiffness: float | None
+    shear_stiffness: float | None
+    penalty_modulus: float
+    damping_ratio: float
+    joint_water: bool
+
+    def block_kwargs(self) -> dict:
+        """The contact keywords for ``coupled_scene(block_kwargs=...)`` (unset ones left out)."""
+        return {k: getattr(self, k) for k in ("cohesion", "normal_stiffness", "shear_stiffness", "penalty_modulus",
+                                               "damping_ratio") if getattr(self, k) is not None}
+
+
+@dataclasses.dataclass(frozen=True)
+class SphSpec:
+    """``[sph]``: the particle spacing ``dx`` [m] (None: blocks only), the fluid scheme object
+    ``scheme`` (None without water) and the constants given to the builders; ``alpha`` and ``nu``
+    [m^2/s] are the scheme's defaults where the file gives none; ``skin_factor`` None: the
+    builders' default (0.3 dx for water only, 0.6 dx with moving blocks)."""
+
+    dx: float | None
+    scheme: Any
+    c0: float | None
+    h_factor: float
+    alpha: float | None
+    nu: float | None
+    delta: float
+    wall_viscosity: float
+    skin_factor: float | None
+    rebuild_every: int
+    cfl: float
+
+
+@dataclasses.dataclass(frozen=True)
+class CouplingSpec:
+    """``[coupling]``: the ``method`` (``Coupling``) and the seed Eq 22 penalty's ``stiffness``
+    [1/s^2], ``damping`` [1/s] and ``interaction_distance`` [m] (None: ``coupling_params``'
+    defaults); ``guard`` and ``guard_fixed`` (``Config.coupling_guard`` / ``guard_fixed``)."""
+
+    method: Coupling
+    stiffness: float | None
+    damping: float | None
+    interaction_distance: float | None
+    guard: bool
+    guard_fixed: bool
+
+
+@dataclasses.dataclass(frozen=True)
+class GaugeSpec:
+    """One ``[[gauge]]``: ``name``, position ``xy`` [m], the bed ``bottom_z`` [m] (None: the domain floor)."""
+
+    name: str | None
+    xy: tuple[float, float]
+    bottom_z: float | None
+
+
+@dataclasses.dataclass(frozen=True)
+class RunupSpec:
+    """``[runup]``: a ``point`` [m] on the slope, its outward unit ``normal``, ``x_min`` [m] (None: all water)."""
+
+    point: Vec3
+    normal: Vec3
+    x_min: float | None
+
+
+@dataclasses.dataclass(frozen=True)
+class SceneSpec:
+    """A general scene file, checked: every table typed, defaults filled, overrides applied.
+
+    ``where`` reports the refusals that only ``build`` can find with the file, line and key.
+    """
+
+    name: str
+    description: str | None
+    still_level: float | None
+    domain: DomainSpec | None
+    waters: tuple[WaterSpec, ...]
+    fixed: tuple[FixedSpec, ...]
+    blocks: tuple[BlockSpec, ...]
+    materials: MaterialsSpec
+    sph: SphSpec
+    coupling: CouplingSpec
+    gauges: tuple[GaugeSpec, ...]
+    runup: RunupSpec | None
+    where: _Ctx = dataclasses.field(repr=False, compare=False)
+
+    @property
+    def moving(self) -> tuple[BlockSpec, ...]:
+        """The dynamic blocks."""
+        return tuple(b for b in self.blocks if b.motion == "dynamic")
+
+
+def _fields(cls, table: dict, **more):
+    """``cls`` from a checked table (its keys that are fields of ``cls``) and ``more``."""
+    names = {f.name for f in dataclasses.fields(cls)}
+    return cls(**{k: v for k, v in table.items() if k in names}, **more)
 
 
 def _array_tables(ctx: _Ctx, doc: dict, name: str) -> list:
@@ -760,12 +872,49 @@ def _array_tables(ctx: _Ctx, doc: dict, name: str) -> list:
     return [_table(ctx, (name, i), d, _SCHEMA[name]) for i, d in enumerate(raw)]
 
 
-def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
-    from .. import blocks as blk
-    from .coupled import coupled_scene, coupling_params
-    from .fluid import _scheme_defaults
-    from .shapes import clearance, plane
+def _parse_fixed(ctx: _Ctx, doc: dict, has_domain: bool) -> tuple[FixedSpec, ...]:
+    out = []
+    for i, data in enumerate(doc.get("fixed", [])):
+        path = ("fixed", i)
+        f = _table(ctx, path, data, _SCHEMA["fixed"])
+        kind = f["type"]
+        _check_type_keys(ctx, path, data, "type", kind, _FIXED_KEYS,
+                         {"box": ("lo", "hi"), "plane": ("point", "normal"), "mesh": ("file",)})
+        if kind == "box" and not all(h > l for l, h in zip(f["lo"], f["hi"])):
+            ctx.fail(path + ("hi",), f"must exceed lo on every axis (lo {list(f['lo'])}, hi {list(f['hi'])})")
+        if kind == "plane":
+            if not np.linalg.norm(f["normal"]) > 0:
+                ctx.fail(path + ("normal",), "must be a non-zero vector (pointing out of the solid, into the water)")
+            if not has_domain:
+                ctx.fail_table(path, "type = 'plane' needs a [domain] to bound it")
+        f["name"] = f["name"] or f"fixed #{i + 1} ({kind})"
+        if f["file"] is not None:
+            f["file"] = _path_in(ctx, path, f["file"])
+        out.append(_fields(FixedSpec, f, path=path))
+    return tuple(out)
 
+
+def _parse_blocks(ctx: _Ctx, doc: dict) -> tuple[BlockSpec, ...]:
+    out = []
+    for i, data in enumerate(doc.get("block", [])):
+        path = ("block", i)
+        b = _table(ctx, path, data, _SCHEMA["block"])
+        _check_type_keys(ctx, path, data, "shape", b["shape"], _BLOCK_KEYS,
+                         {"box": ("size", "position"), "wedge": ("size", "position"), "mesh": ("file",)})
+        if not np.linalg.norm(b["rotation_axis"]) > 0:
+            ctx.fail(path + ("rotation_axis",), "must be a non-zero vector")
+        if b["file"] is not None:
+            b["file"] = _path_in(ctx, path, b["file"])
+        out.append(_fields(BlockSpec, b, path=path))
+    return tuple(out)
+
+
+def parse(ctx: _Ctx, doc: dict, overrides: dict) -> SceneSpec:
+    """Check a general scene file's document (``tomllib`` output) and type it: a ``SceneSpec``.
+
+    ``overrides``: ``dx``, ``scheme``, ``coupling`` given to ``load`` (checked as the keys they
+    replace). Raises ValueError naming the file, line and key of the first refusal.
+    """
     for table, value in doc.items():
         if table not in _SCHEMA or (table in _ARRAYS) != isinstance(value, list):
             if table in _SCHEMA:
@@ -789,91 +938,124 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
     gauges = _array_tables(ctx, doc, "gauge")
     runup = _table(ctx, ("runup",), doc["runup"], _SCHEMA["runup"]) if "runup" in doc else None
     domain = _table(ctx, ("domain",), doc["domain"], _SCHEMA["domain"]) if "domain" in doc else None
-    name = scene_t["name"] or "scene"
     has_water = bool(waters)
-
-    # ---- domain and lattice -------------------------------------------------------------------
-    dx = sph["dx"]
-    layers = int(math.ceil(SUPPORT_FACTOR * sph["h_factor"]))
     if has_water:
         if domain is None:
             ctx.fail_table(("water", 0), "water needs a [domain] (the tank: lo, hi)")
-        if dx is None:
+        if sph["dx"] is None:
             ctx.fail_table(("sph",), "a scene with water needs the particle spacing: `dx = ...` (m) in [sph]")
-    if domain is not None:
-        lo = np.asarray(domain["lo"], float)
-        hi = np.asarray(domain["hi"], float)
-        if np.any(hi <= lo):
-            ctx.fail(("domain", "hi"), f"must exceed lo on every axis (lo {lo.tolist()}, hi {hi.tolist()})")
-        if has_water:
-            n = np.round((hi - lo) / dx).astype(int)
-            if np.any(n < 4):
-                ctx.fail(("domain", "hi"), f"the domain must be at least 4 dx = {4 * dx:g} m on every axis "
-                                           f"(sizes {(hi - lo).tolist()} m); enlarge it or use a smaller dx")
-            hi = lo + n * dx  # whole cells
-    periodic = domain["periodic"] if domain is not None else (False, False, False)
-    open_top = domain["open_top"] if domain is not None else True
-    pad = layers * dx if has_water else 0.0
-    if domain is not None:
-        grow = (layers + 1) * dx if has_water else 0.1 * float(np.max(hi - lo))
-        clip_lo, clip_hi = lo - grow, hi + grow
-    else:
-        clip_lo = clip_hi = None
-    fixed = _fixed_of(ctx, doc, clip_lo=clip_lo, clip_hi=clip_hi,
-                      exact_within=(layers + 1) * dx if has_water else 0.0)
-    user_blocks = _blocks_of(ctx, doc)
-    moving = [ub for ub in user_blocks if ub[1]["motion"] == "dynamic"]
-    if not has_water and not moving:
+    if domain is not None and np.any(np.asarray(domain["hi"], float) <= np.asarray(domain["lo"], float)):
+        ctx.fail(("domain", "hi"), f"must exceed lo on every axis (lo {list(domain['lo'])}, hi {list(domain['hi'])})")
+    fixed = _parse_fixed(ctx, doc, domain is not None)
+    blocks = _parse_blocks(ctx, doc)
+    if not has_water and not any(b.motion == "dynamic" for b in blocks):
         ctx.fail_table(("scene",), "nothing moves: add [[water]] (with [domain] and [sph] dx) or a "
                                    "[[block]] with motion = \"dynamic\"")
     if gauges and not has_water:
         ctx.fail_table(("gauge", 0), "gauges measure water: add [[water]]")
     if runup is not None and not has_water:
         ctx.fail_table(("runup",), "run-up measures water: add [[water]]")
+    if runup is not None and not np.linalg.norm(np.asarray(runup["normal"])) > 0:
+        ctx.fail(("runup", "normal"), "must be a non-zero vector (the slope's outward normal)")
+    scheme, alpha, nu = None, sph["alpha"], sph["nu"]
+    if has_water:  # the scheme's terms are checked where the scene has water to run them on
+        from .fluid import _scheme_defaults
 
-    # fixed user blocks are fixed geometry for the water too
-    from .meshes import fixed_from_polyhedron
+        scheme, alpha, nu = _scheme_defaults(_fluid_scheme(ctx, sph), alpha, nu)
+    return SceneSpec(
+        name=scene_t["name"] or "scene", description=scene_t["description"], still_level=scene_t["still_level"],
+        domain=_fields(DomainSpec, domain) if domain is not None else None,
+        waters=tuple(_fields(WaterSpec, w, path=("water", i)) for i, w in enumerate(waters)),
+        fixed=fixed, blocks=blocks, materials=_fields(MaterialsSpec, mat),
+        sph=_fields(SphSpec, {**sph, "scheme": scheme, "alpha": alpha, "nu": nu}),
+        coupling=_fields(CouplingSpec, {**cpl, "method": Coupling(cpl["method"])}),
+        gauges=tuple(_fields(GaugeSpec, g) for g in gauges),
+        runup=_fields(RunupSpec, runup) if runup is not None else None, where=ctx)
 
-    solids = [(s, path) for s, _, path in fixed]
-    solids += [(fixed_from_polyhedron(p, p.centroid_world, name=f"block #{path[1] + 1}"), path)
-               for p, b, path in user_blocks if b["motion"] == "fixed"]
 
-    # moving blocks must not start inside fixed geometry
-    for poly, b, path in moving:
-        verts = poly.vertices + poly.centroid_world
-        size = 2 * poly.bounding_radius
-        for s, spath in solids:
-            depth = float(np.max(s.clearance(verts)))
-            if depth > 1e-3 * size:
-                ctx.fail(path + ("position",), f"the block starts {depth:.3g} m inside {s.name} "
-                                               f"(line {ctx.lines.line(spath)}); move it out")
+# ---- build: SceneSpec -> Scene -----------------------------------------------------------------
 
-    meta: dict[str, Any] = {"description": scene_t["description"]} if scene_t["description"] else {}
-    block_kwargs = {k: mat[k] for k in ("cohesion", "normal_stiffness", "shear_stiffness", "penalty_modulus",
-                                         "damping_ratio") if mat[k] is not None}
-    if not has_water:  # blocks only
-        polys = [p for p, _, _ in user_blocks]
-        positions = [p.centroid_world for p in polys]
-        motion = [blk.Motion.DYNAMIC if b["motion"] == "dynamic" else blk.Motion.FIXED for _, b, _ in user_blocks]
-        dens = [b["density"] for _, b, _ in user_blocks]
-        vel = [b["velocity"] for _, b, _ in user_blocks]
-        for s, f, path in fixed:
-            if s.polyhedron is None:
-                ctx.fail_table(path, "a non-convex fixed mesh cannot be a block (blocks-only scene); split it into "
-                                     "convex pieces")
+
+def _build_fixed(spec: SceneSpec, *, clip_lo, clip_hi, exact_within: float) -> list:
+    """The ``[[fixed]]`` solids: ``[(FixedSolid, FixedSpec)]``."""
+    from . import meshes
+
+    ctx = spec.where
+    out = []
+    for f in spec.fixed:
+        try:
+            if f.type == "box":
+                solid = meshes.fixed_box(f.lo, f.hi, name=f.name)
+            elif f.type == "plane":
+                solid = meshes.fixed_plane(f.point, f.normal, clip_lo=clip_lo, clip_hi=clip_hi, name=f.name)
+            else:
+                solid = meshes.fixed_from_mesh(f.file, scale=f.scale, offset=f.offset,
+                                               convexity_tol=f.convexity_tol, name=f.name,
+                                               exact_within=exact_within)
+        except ValueError as exc:
+            if str(exc).startswith(ctx.source):
+                raise
+            key = {"box": "lo", "plane": "point", "mesh": "file"}[f.type]
+            ctx.fail(f.path + (key,), str(exc))
+        out.append((solid, f))
+    return out
+
+
+def _build_blocks(spec: SceneSpec) -> list:
+    """The ``[[block]]`` polyhedra placed at their centroids: ``[(ConvexPolyhedron, BlockSpec)]``."""
+    from ..blocks import geometry as geo
+    from .meshes import block_from_mesh
+
+    out = []
+    for b in spec.blocks:
+        if b.shape == "box":
+            poly = geo.box(*b.size)
+        elif b.shape == "wedge":
+            poly = geo.wedge(*b.size)
+        else:
+            try:
+                poly = block_from_mesh(b.file, hull=b.hull, scale=b.scale, convexity_tol=b.convexity_tol)
+            except ValueError as exc:
+                spec.where.fail(b.path + ("file",), str(exc))
+        position = np.asarray(b.position if b.position is not None else poly.centroid_world, float)
+        R = _rotation(b.rotation_axis, b.rotation_deg)
+        placed = geo.ConvexPolyhedron.from_vertices(poly.vertices @ R.T + position)
+        out.append((placed, b))
+    return out
+
+
+def _block_list(user_blocks: list, fixed: list, *, fixed_blocks) -> tuple[list, list, list, list, list]:
+    """``(polyhedra, positions, motion, density, velocity)`` for ``coupled_scene``: the user's blocks,
+    then the fixed solids ``fixed_blocks(solid, FixedSpec)`` selects, as FIXED blocks of 2650 kg/m^3."""
+    from .. import blocks as blk
+
+    polys, positions, motion, dens, vel = [], [], [], [], []
+    for p, b in user_blocks:
+        polys.append(p)
+        positions.append(p.centroid_world)
+        motion.append(blk.Motion.DYNAMIC if b.motion == "dynamic" else blk.Motion.FIXED)
+        dens.append(b.density)
+        vel.append(b.velocity)
+    for s, f in fixed:
+        if fixed_blocks(s, f):
             polys.append(s.polyhedron)
             positions.append(s.position)
             motion.append(blk.Motion.FIXED)
             dens.append(2650.0)
             vel.append((0.0, 0.0, 0.0))
-        try:
-            return coupled_scene(name=name, dx=None, polyhedra=polys, positions=positions,
-                                 motion=motion, block_density=dens, friction_angle_deg=mat["friction_angle_deg"],
-                                 velocities=vel, block_kwargs=block_kwargs, meta=meta)
-        except ValueError as exc:
-            raise ValueError(f"{ctx.source}: building the blocks failed: {exc}") from exc
+    return polys, positions, motion, dens, vel
 
-    # ---- particles ----------------------------------------------------------------------------
+
+def _water_and_walls(spec: SceneSpec, res: Resolution, lo, hi, solids) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
+    """The lattice ``lo + (i + 1/2) dx`` (grown by the wall layers) as ``(points [n, 3], water mask
+    [n], wall particles [m, 3], the water regions' levels [m])``: walls within ``res.wall_layers``
+    dx behind the domain's faces and the fixed ``solids``, water inside a ``[[water]]`` region and
+    > 0.3 dx from every wall (``build`` then clears it from the moving blocks)."""
+    from .shapes import clearance, plane
+
+    ctx, dx, layers = spec.where, res.dx, res.wall_layers
+    periodic, open_top = spec.domain.periodic, spec.domain.open_top
+    pad = layers * dx
     ext_lo = np.array([lo[a] if periodic[a] else lo[a] - pad for a in range(3)])
     ext_hi = np.array([hi[a] if (periodic[a] or (a == 2 and open_top)) else hi[a] + pad for a in range(3)])
     pts = lattice(ext_lo, ext_hi, dx)
@@ -893,96 +1075,156 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
     inside = np.all((pts > lo) & (pts < hi), axis=1)
     water_mask = np.zeros(len(pts), bool)
     levels = []
-    for i, w in enumerate(waters):
-        wlo = np.asarray(w["lo"] if w["lo"] is not None else lo)
-        whi = np.asarray(w["hi"] if w["hi"] is not None else hi)
+    for w in spec.waters:
+        wlo = np.asarray(w.lo if w.lo is not None else lo)
+        whi = np.asarray(w.hi if w.hi is not None else hi)
         if np.any(whi <= wlo):
-            ctx.fail(("water", i, "hi"), f"must exceed lo on every axis (lo {wlo.tolist()}, hi {whi.tolist()})")
+            ctx.fail(w.path + ("hi",), f"must exceed lo on every axis (lo {wlo.tolist()}, hi {whi.tolist()})")
         hs = [plane(-np.eye(3)[a], wlo) for a in range(3)] + [plane(np.eye(3)[a], whi) for a in range(3)]
-        if w["level"] is not None:
-            hs.append(plane([0, 0, 1], [0, 0, w["level"]]))
-        hs += [plane(n, p) for p, n in w["planes"]]
+        if w.level is not None:
+            hs.append(plane([0, 0, 1], [0, 0, w.level]))
+        hs += [plane(n, p) for p, n in w.planes]
         mine = inside & (clearance(pts, hs) > 0.3 * dx) & (phi > 0.3 * dx)
         if not np.any(mine):
-            ctx.fail_table(("water", i), f"holds no water particle at dx = {dx:g} m (is it inside the domain and "
-                                         "outside the fixed geometry?)")
+            ctx.fail_table(w.path, f"holds no water particle at dx = {dx:g} m (is it inside the domain and "
+                                   "outside the fixed geometry?)")
         water_mask |= mine
-        levels.append(w["level"] if w["level"] is not None else float(whi[2]))
-    for poly, b, path in moving:
-        from .meshes import world_halfspaces
+        levels.append(w.level if w.level is not None else float(whi[2]))
+    return pts, water_mask, wall_x, levels
 
+
+def build(spec: SceneSpec) -> Scene:
+    """The ``Scene`` of a checked scene file: water, walls and fixed geometry on one lattice, and
+    the blocks (``base.fluid_scene`` without moving blocks, else ``coupled.coupled_scene``).
+
+    Raises ValueError (file, line, key) for what only the geometry shows: a domain under 4 dx, a
+    water region without particles, a moving block inside fixed geometry, a mesh that fails.
+    """
+    from .coupled import coupled_scene, coupling_params
+    from .meshes import fixed_from_polyhedron, world_halfspaces
+    from .shapes import clearance
+
+    ctx, sph, cpl, mat = spec.where, spec.sph, spec.coupling, spec.materials
+    has_water = bool(spec.waters)
+    dx = sph.dx
+    res = Resolution(dx, sph.h_factor) if has_water else None
+    layers = res.wall_layers if has_water else 0
+
+    # ---- domain and lattice -------------------------------------------------------------------
+    if spec.domain is not None:
+        lo = np.asarray(spec.domain.lo, float)
+        hi = np.asarray(spec.domain.hi, float)
+        if has_water:
+            n = np.round((hi - lo) / dx).astype(int)
+            if np.any(n < 4):
+                ctx.fail(("domain", "hi"), f"the domain must be at least 4 dx = {4 * dx:g} m on every axis "
+                                           f"(sizes {(hi - lo).tolist()} m); enlarge it or use a smaller dx")
+            hi = lo + n * dx  # whole cells
+        grow = (layers + 1) * dx if has_water else 0.1 * float(np.max(hi - lo))
+        clip_lo, clip_hi = lo - grow, hi + grow
+    else:
+        clip_lo = clip_hi = None
+    fixed = _build_fixed(spec, clip_lo=clip_lo, clip_hi=clip_hi, exact_within=(layers + 1) * dx if has_water else 0.0)
+    user_blocks = _build_blocks(spec)
+    moving = [(p, b) for p, b in user_blocks if b.motion == "dynamic"]
+
+    # fixed user blocks are fixed geometry for the water too
+    solids = [(s, f.path) for s, f in fixed]
+    solids += [(fixed_from_polyhedron(p, p.centroid_world, name=f"block #{b.path[1] + 1}"), b.path)
+               for p, b in user_blocks if b.motion == "fixed"]
+
+    # moving blocks must not start inside fixed geometry
+    for poly, b in moving:
+        verts = poly.vertices + poly.centroid_world
+        size = 2 * poly.bounding_radius
+        for s, spath in solids:
+            depth = float(np.max(s.clearance(verts)))
+            if depth > 1e-3 * size:
+                ctx.fail(b.path + ("position",), f"the block starts {depth:.3g} m inside {s.name} "
+                                                 f"(line {ctx.lines.line(spath)}); move it out")
+
+    meta: dict[str, Any] = {"description": spec.description} if spec.description else {}
+    block_kwargs = mat.block_kwargs()
+    if not has_water:  # blocks only
+        for s, f in fixed:
+            if s.polyhedron is None:
+                ctx.fail_table(f.path, "a non-convex fixed mesh cannot be a block (blocks-only scene); split it into "
+                                       "convex pieces")
+        polys, positions, motion, dens, vel = _block_list(user_blocks, fixed, fixed_blocks=lambda s, f: True)
+        try:
+            return coupled_scene(name=spec.name, dx=None, polyhedra=polys, positions=positions,
+                                 motion=motion, block_density=dens, friction_angle_deg=mat.friction_angle_deg,
+                                 velocities=vel, block_kwargs=block_kwargs, meta=meta)
+        except ValueError as exc:
+            raise ValueError(f"{ctx.source}: building the blocks failed: {exc}") from exc
+
+    # ---- particles ----------------------------------------------------------------------------
+    pts, water_mask, wall_x, levels = _water_and_walls(spec, res, lo, hi, solids)
+    for poly, _ in moving:
         phib = clearance(pts, world_halfspaces(poly, poly.centroid_world))
         water_mask &= phib < -0.25 * dx
     fluid_x = pts[water_mask]
     if len(fluid_x) == 0:
         ctx.fail_table(("water", 0), "no water particle is left outside the blocks")
-    still = scene_t["still_level"] if scene_t["still_level"] is not None else max(levels)
+    still = spec.still_level if spec.still_level is not None else max(levels)
     z_bottom = float(np.min(fluid_x[:, 2])) - 0.5 * dx
     speed = math.sqrt(2 * GRAVITY * max(still - z_bottom, dx))
-    for poly, b, _ in moving:
+    for poly, b in moving:
         drop = max(float(poly.centroid_world[2]) - z_bottom, 0.0)
-        speed = max(speed, float(np.linalg.norm(b["velocity"])) + math.sqrt(2 * GRAVITY * drop))
-    c0 = sph["c0"] if sph["c0"] is not None else 10.0 * speed
-    scheme, alpha, nu = _scheme_defaults(_fluid_scheme(ctx, sph), sph["alpha"], sph["nu"])
+        speed = max(speed, float(np.linalg.norm(b.velocity)) + math.sqrt(2 * GRAVITY * drop))
+    c0 = sph.c0 if sph.c0 is not None else 10.0 * speed
+    periodic = spec.domain.periodic
+    pad = layers * dx
     dom_lo = np.array([lo[a] if periodic[a] else lo[a] - pad for a in range(3)])
     dom_hi = np.array([hi[a] if periodic[a] else hi[a] + pad for a in range(3)])
     meta.update(still_level=float(still), domain_lo=lo.tolist(), domain_hi=hi.tolist(), c0=float(c0))
-    if gauges:
-        meta["gauges"] = dict(names=[g["name"] or f"g{i + 1}" for i, g in enumerate(gauges)],
-                              xy=[list(g["xy"]) for g in gauges],
-                              bottom_z=[g["bottom_z"] if g["bottom_z"] is not None else float(lo[2]) for g in gauges])
-    if runup is not None:
-        n = np.asarray(runup["normal"])
-        if not np.linalg.norm(n) > 0:
-            ctx.fail(("runup", "normal"), "must be a non-zero vector (the slope's outward normal)")
-        meta["runup_slope"] = dict(point=list(runup["point"]), normal=(n / np.linalg.norm(n)).tolist(),
-                                   x_min=runup["x_min"])
-    walls_only = [s.name for s, f, _ in fixed if s.polyhedron is None or not f["block"]]
+    if spec.gauges:
+        meta["gauges"] = dict(names=[g.name or f"g{i + 1}" for i, g in enumerate(spec.gauges)],
+                              xy=[list(g.xy) for g in spec.gauges],
+                              bottom_z=[g.bottom_z if g.bottom_z is not None else float(lo[2]) for g in spec.gauges])
+    if spec.runup is not None:
+        n = np.asarray(spec.runup.normal)
+        meta["runup_slope"] = dict(point=list(spec.runup.point), normal=(n / np.linalg.norm(n)).tolist(),
+                                   x_min=spec.runup.x_min)
+    walls_only = [s.name for s, f in fixed if s.polyhedron is None or not f.block]
     if walls_only:
         meta["fixed_walls_only"] = walls_only
-    common = dict(h_factor=sph["h_factor"], alpha=alpha, nu=nu, delta=sph["delta"],
-                  wall_viscosity=sph["wall_viscosity"],
+    common = dict(h_factor=sph.h_factor, alpha=sph.alpha, nu=sph.nu, delta=sph.delta,
+                  wall_viscosity=sph.wall_viscosity,
                   # the builders' defaults: 0.3 dx for water only, 0.6 dx with moving blocks
-                  skin_factor=sph["skin_factor"] if sph["skin_factor"] is not None else (0.6 if moving else 0.3),
-                  rebuild_every=sph["rebuild_every"], cfl=sph["cfl"])
+                  skin_factor=sph.skin_factor if sph.skin_factor is not None else (0.6 if moving else 0.3),
+                  rebuild_every=sph.rebuild_every, cfl=sph.cfl)
     if not moving:
-        return fluid_scene(name=name, dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,
-                           periodic=tuple(periodic), surface_z=still, c0=c0, scheme=scheme, meta=meta, **common)
-    if walls_only and any(s.polyhedron is None for s, _, _ in fixed):
+        return fluid_scene(name=spec.name, dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo,
+                           domain_hi=dom_hi, periodic=tuple(periodic), surface_z=still, c0=c0, scheme=sph.scheme,
+                           meta=meta, **common)
+    if walls_only and any(s.polyhedron is None for s, _ in fixed):
         warnings.warn(f"{ctx.source}: {', '.join(walls_only)} is not convex: it is walls for the water only, and "
                       "moving blocks will pass through it (split it into convex pieces to make it a block)",
-                      stacklevel=3)
-    polys, positions, motion, dens, vel = [], [], [], [], []
-    for p, b, _ in user_blocks:
-        polys.append(p)
-        positions.append(p.centroid_world)
-        motion.append(blk.Motion.DYNAMIC if b["motion"] == "dynamic" else blk.Motion.FIXED)
-        dens.append(b["density"])
-        vel.append(b["velocity"])
-    for s, f, _ in fixed:
-        if s.polyhedron is not None and f["block"]:
-            polys.append(s.polyhedron)
-            positions.append(s.position)
-            motion.append(blk.Motion.FIXED)
-            dens.append(2650.0)
-            vel.append((0.0, 0.0, 0.0))
+                      stacklevel=4)
+    polys, positions, motion, dens, vel = _block_list(
+        user_blocks, fixed, fixed_blocks=lambda s, f: s.polyhedron is not None and f.block)
     try:
-        scene = coupled_scene(name=name, dx=dx, polyhedra=polys, positions=positions,
-                              motion=motion, block_density=dens, friction_angle_deg=mat["friction_angle_deg"],
+        scene = coupled_scene(name=spec.name, dx=dx, polyhedra=polys, positions=positions,
+                              motion=motion, block_density=dens, friction_angle_deg=mat.friction_angle_deg,
                               fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo, domain_hi=dom_hi,
-                              periodic=tuple(periodic), still_level=still, coupling=Coupling(cpl["method"]), c0=c0,
-                              scheme=scheme, velocities=vel, joint_water=mat["joint_water"], coupling_guard=cpl["guard"],
-                              guard_fixed=cpl["guard_fixed"],
+                              periodic=tuple(periodic), still_level=still, coupling=cpl.method, c0=c0,
+                              scheme=sph.scheme, velocities=vel, joint_water=mat.joint_water, coupling_guard=cpl.guard,
+                              guard_fixed=cpl.guard_fixed,
                               block_kwargs=block_kwargs,
                               meta=meta, **common)
     except ValueError as exc:
         raise ValueError(f"{ctx.source}: building the scene failed: {exc}") from exc
-    if scene.params.coupling is not None and any(cpl[k] is not None for k in ("stiffness", "damping",
-                                                                               "interaction_distance")):
+    if scene.params.coupling is not None and any(v is not None for v in (cpl.stiffness, cpl.damping,
+                                                                          cpl.interaction_distance)):
         scene = scene.replace(params=scene.params.replace(coupling=coupling_params(
-            dx=dx, c0=c0, stiffness=cpl["stiffness"], damping=cpl["damping"],
-            interaction_distance=cpl["interaction_distance"], coupling=Coupling(cpl["method"]))))
+            dx=dx, c0=c0, stiffness=cpl.stiffness, damping=cpl.damping,
+            interaction_distance=cpl.interaction_distance, coupling=cpl.method)))
     return scene
+
+
+def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
+    return build(parse(ctx, doc, overrides))
 
 
 #: scene-file keys of ``[sph]`` -> the scheme's term slots (``sph.schemes.from_names``)
