@@ -25,7 +25,8 @@ def test_regrows_neighbour_buffer_and_matches(small, tmp_path):
     run = rj.io.read(str(tmp_path / "g.h5"))
     np.testing.assert_allclose(run.x, grown.frames["x"])
     np.testing.assert_allclose(run.time, grown.times)
-    assert run.scene == "hydrostatic_tank" and run.config["scheme"] == "wcsph"
+    assert run.scene == "hydrostatic_tank" and run.config["scheme"]["name"] == "wcsph"
+    assert run.config["scheme"]["diffusion"] == {"name": "fourtakas"}
     assert float(run.params["fluid/rho0"]) == 1000.0
     assert run.x.shape == (len(run.time), small.config.n_particles, 3)
 

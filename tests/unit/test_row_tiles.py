@@ -139,7 +139,7 @@ def test_flat_wall_sums_equal_row_transpose(primed, x64):
 def test_default_row_tile_depends_on_list_size():
     sc = rj.scenes.dam_break(dx=0.5 / 5, column_height=0.5, tank_length=1.0, tank_width=0.5, column_width=0.4)
     c = sc.config
-    assert c.row_tile is None and c.effective_row_tile == 0  # a few hundred rows: one block
+    assert c.tuning.row_tile is None and c.effective_row_tile == 0  # a few hundred rows: one block
     big = c.replace(n_fluid=2**20 // c.neighbour_capacity + 1)
     assert big.effective_row_tile == 512
     assert c.tuned(row_tile=0).effective_row_tile == 0 and c.tuned(row_tile=64).effective_row_tile == 64
@@ -160,7 +160,7 @@ def test_default_gather_is_rows_on_accelerators_only(monkeypatch):
     """``GatherForm`` resolves by backend: 1-D gathers on the CPU (their forward is faster there),
     row gathers on a GPU (their reverse mode is faster there); an explicit ``gather`` still wins."""
     c = rj.scenes.dam_break(dx=0.5 / 5, column_height=0.5, tank_length=1.0, tank_width=0.5, column_width=0.4).config
-    assert c.gather is None and c.effective_gather == rj.GatherForm.COMPONENTS  # here: the CPU
+    assert c.tuning.gather is None and c.effective_gather == rj.GatherForm.COMPONENTS  # here: the CPU
     assert c.tuned(gather=rj.GatherForm.ROWS).effective_gather == rj.GatherForm.ROWS
     monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
     assert c.effective_gather == rj.GatherForm.ROWS

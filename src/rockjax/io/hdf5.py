@@ -42,7 +42,13 @@ def _jsonable(obj: Any):
     if isinstance(obj, collections.abc.Mapping):  # dicts and the scene's meta (scenes.meta)
         return {str(k): _jsonable(v) for k, v in obj.items()}
     if dataclasses.is_dataclass(obj):
-        return {f.name: _jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+        fields = {f.name: _jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+        name = getattr(type(obj), "name", None)  # a named choice of maths (a scheme, term, coupling, law)
+        if isinstance(name, str) and "name" not in fields:
+            return {"name": name or type(obj).__name__, **fields}
+        if not fields and not isinstance(obj, type):  # a choice with no name and no fields: its class
+            return {"name": type(obj).__name__}
+        return fields
     if isinstance(obj, (tuple, list)):
         return [_jsonable(o) for o in obj]
     if isinstance(obj, (np.generic,)):
@@ -51,7 +57,8 @@ def _jsonable(obj: Any):
 
 
 def config_to_json(config) -> str:
-    """The static config as JSON (enums by value)."""
+    """The static config as JSON (enums by value; scheme, term, coupling and contact-law objects as
+    ``{"name": ..., their fields...}``)."""
     return json.dumps(_jsonable(config))
 
 
