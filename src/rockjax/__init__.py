@@ -22,13 +22,13 @@ from .sph.schemes import WCSPH, SeedScheme
 from .step import make_step, prime
 from .tuning import Tuning
 from .types import (
-    Adjoint, Config, Coupling, GatherForm, CouplingParams, CouplingState, FluidParams, GridSpec, Kind,
+    Adjoint, Capacities, Config, Coupling, GatherForm, CouplingParams, CouplingState, FluidParams, GridSpec, Kind,
     NeighbourList, Params, Particles, State, Status,
 )
 
 __all__ = [
     "__version__",
-    "Config", "Params", "FluidParams", "State", "Particles", "NeighbourList", "GridSpec",
+    "Config", "Capacities", "Params", "FluidParams", "State", "Particles", "NeighbourList", "GridSpec",
     "CouplingParams", "CouplingState",
     "WCSPH", "SeedScheme", "Tuning", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
     "make_step", "prime", "make_rollout", "rollout",

@@ -159,16 +159,17 @@ def _grow(config: Config, period: int, state: State, bits: int) -> tuple[Config,
         grown["fcp_crosses"] = min(2 * b.fcp_crosses, b.support_edges ** 2)
     if grown:
         changes["blocks"] = dataclasses.replace(b, **grown)
+    caps = {}  # Capacities fields
     if bits & Status.NEIGHBOUR_OVERFLOW:
-        changes["neighbour_capacity"] = max(_round8(1.2 * int(state.nbrs.max_count)), config.neighbour_capacity + 8)
+        caps["neighbours"] = max(_round8(1.2 * int(state.nbrs.max_count)), config.neighbour_capacity + 8)
     if bits & Status.CELL_OVERFLOW:
-        changes["cell_capacity"] = max(_round8(1.2 * int(state.nbrs.max_run)), config.cell_capacity + 8)
+        caps["cells"] = max(_round8(1.2 * int(state.nbrs.max_run)), config.cell_capacity + 8)
     if bits & Status.WALL_PAIR_OVERFLOW:
-        changes["wall_pair_capacity"] = max(_round8(1.5 * int(state.nbrs.max_wall_count)),
-                                            config.wall_pair_capacity + 64)
+        caps["wall_pairs"] = max(_round8(1.5 * int(state.nbrs.max_wall_count)), config.wall_pair_capacity + 64)
     if bits & Status.BODY_PAIR_OVERFLOW:
-        changes["body_pair_capacity"] = max(_round8(1.5 * int(state.nbrs.max_body_count)),
-                                            config.body_pair_capacity + 64)
+        caps["body_pairs"] = max(_round8(1.5 * int(state.nbrs.max_body_count)), config.body_pair_capacity + 64)
+    if caps:
+        changes["capacities"] = config.capacities.replace(**caps)
     if bits & Status.NEIGHBOUR_STALE:
         if period == 1:
             raise SimulationError("neighbour list stale with a rebuild every step: particles move more than "

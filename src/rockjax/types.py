@@ -29,6 +29,7 @@ __all__ = [
     "Kind",
     "Status",
     "GridSpec",
+    "Capacities",
     "Config",
     "FluidParams",
     "CouplingParams",
@@ -171,6 +172,39 @@ class GridSpec:
         return GridSpec(tuple(origin), tuple(cell), tuple(shape), tuple(bool(p) for p in periodic))  # type: ignore[arg-type]
 
 
+@dataclasses.dataclass(frozen=True)
+class Capacities:
+    """Sizes of the particle side's neighbour buffers (static): the scene builders size them from
+    the initial state, a step sets an overflow bit when one is too small, and the host driver grows
+    it and reruns the chunk (``driver``). Nothing is dropped silently.
+
+    Attributes:
+        neighbours: K, neighbours kept per fluid-segment particle (``NEIGHBOUR_OVERFLOW``).
+        cells: the most particles a run of ``Config.run_length`` consecutive x-cells may hold
+            (``CELL_OVERFLOW``).
+        wall_pairs: length of the flat list of (fluid row, wall neighbour) pairs that the WCSPH step
+            sums the walls' quantities over (``NeighbourList.wall_row``; ``WALL_PAIR_OVERFLOW``).
+        body_pairs: with boundary particles, length of the sub-list of those pairs whose wall
+            particle is carried by a block (``NeighbourList.body_row``), over which a step sums the
+            loads on the blocks (0: no sub-list; the loads then come from the whole wall-pair list;
+            ``BODY_PAIR_OVERFLOW``).
+    """
+
+    neighbours: int = 96
+    cells: int = 96
+    wall_pairs: int = 0
+    body_pairs: int = 0
+
+    def __post_init__(self):
+        for name, lo in (("neighbours", 1), ("cells", 1), ("wall_pairs", 0), ("body_pairs", 0)):
+            v = getattr(self, name)
+            if not isinstance(v, (int,)) or isinstance(v, bool) or v < lo:
+                raise ValueError(f"Capacities.{name} must be an integer >= {lo} (got {v!r})")
+
+    def replace(self, **changes) -> "Capacities":
+        return dataclasses.replace(self, **changes)
+
+
 def _default_scheme():
     from .sph.schemes import WCSPH
 
@@ -189,20 +223,13 @@ class Config:
         cutoff: the largest kernel support the list serves [m]; ``kernel_support(params) <= cutoff``.
         skin: Verlet skin [m]; the list holds pairs closer than ``cutoff + skin``.
         rebuild_every: the list is rebuilt (and particles re-sorted by cell) every this many steps.
-        neighbour_capacity: K, neighbours kept per fluid-segment particle.
-        cell_capacity: the most particles a run of ``run_length`` consecutive x-cells may hold.
-        wall_pair_capacity: length of the flat list of (fluid row, wall neighbour) pairs that the
-            WCSPH step sums the walls' quantities over (``NeighbourList.wall_row``); scene builders
-            size it from the initial state, the driver grows it on ``WALL_PAIR_OVERFLOW``.
+        capacities: the neighbour buffers' sizes (``Capacities``), which scene builders size from
+            the initial state and the driver grows on an overflow bit (``grown``); read them as
+            ``neighbour_capacity``, ``cell_capacity``, ``wall_pair_capacity``, ``body_pair_capacity``.
         n_block_particles: the tail ``[n_particles - n_block_particles, n_particles)`` of the wall
             segment that blocks carry (boundary particles, ``Particles.body >= 0``): the list build
             sorts it apart from the fixed walls (which stay sorted) and merges the three sorted
             segments, so moving block particles never force a re-sort of every wall (0: none).
-        body_pair_capacity: with ``Coupling.BOUNDARY_PARTICLES``, length of the sub-list of those
-            pairs whose wall particle is carried by a block (``NeighbourList.body_row``), over
-            which a WCSPH step sums the loads on the blocks (0: no sub-list; the loads then come
-            from the whole wall-pair list); scene builders size it, the driver grows it on
-            ``BODY_PAIR_OVERFLOW``.
         scheme: the fluid scheme and its terms, a static object (``rockjax.sph.schemes``):
             ``WCSPH(kernel=..., viscosity=..., walls=..., diffusion=..., gamma=7)`` (default) or
             ``SeedScheme(gradient=..., walls=...)``.
@@ -239,11 +266,8 @@ class Config:
     cutoff: float
     skin: float
     rebuild_every: int = 10
-    neighbour_capacity: int = 96
-    cell_capacity: int = 96
-    wall_pair_capacity: int = 0
+    capacities: "Capacities" = dataclasses.field(default_factory=lambda: Capacities())
     n_block_particles: int = 0
-    body_pair_capacity: int = 0
     scheme: Any = dataclasses.field(default_factory=lambda: _default_scheme())
     tuning: Tuning = Tuning()
     cfl: float = 0.25
@@ -282,14 +306,10 @@ class Config:
             raise ValueError("Config.grid is required when the scene has particles (GridSpec.covering(...))")
         if self.rebuild_every < 1:
             raise ValueError(f"Config.rebuild_every must be >= 1 (got {self.rebuild_every})")
-        if min(self.neighbour_capacity, self.cell_capacity) < 1:
-            raise ValueError("Config.neighbour_capacity and cell_capacity must be >= 1")
-        if self.wall_pair_capacity < 0:
-            raise ValueError(f"Config.wall_pair_capacity must be >= 0 (got {self.wall_pair_capacity})")
+        if not isinstance(self.capacities, Capacities):
+            raise ValueError(f"Config.capacities must be a rockjax.Capacities (got {self.capacities!r})")
         if not 0 <= self.n_block_particles <= self.n_wall:
             raise ValueError(f"Config.n_block_particles must be in [0, n_wall = {self.n_wall}] (got {self.n_block_particles})")
-        if self.body_pair_capacity < 0:
-            raise ValueError(f"Config.body_pair_capacity must be >= 0 (got {self.body_pair_capacity})")
         if not isinstance(self.tuning, Tuning):
             raise ValueError(f"Config.tuning must be a rockjax.Tuning (got {self.tuning!r})")
         if self.skin < 0:
@@ -311,6 +331,30 @@ class Config:
         """Whether list builds fill the (fluid, block particle) sub-list (``NeighbourList.body_row``)
         and a step sums the blocks' loads over it."""
         return self.body_pair_capacity > 0 and self.coupling_method.body_pairs
+
+    @property
+    def neighbour_capacity(self) -> int:
+        """K, neighbours kept per fluid-segment particle (``capacities.neighbours``)."""
+        return self.capacities.neighbours
+
+    @property
+    def cell_capacity(self) -> int:
+        """The most particles a run of ``run_length`` x-cells may hold (``capacities.cells``)."""
+        return self.capacities.cells
+
+    @property
+    def wall_pair_capacity(self) -> int:
+        """Length of the flat (fluid, wall) pair list (``capacities.wall_pairs``)."""
+        return self.capacities.wall_pairs
+
+    @property
+    def body_pair_capacity(self) -> int:
+        """Length of the (fluid, block particle) sub-list (``capacities.body_pairs``)."""
+        return self.capacities.body_pairs
+
+    def grown(self, **changes) -> "Config":
+        """This config with some buffer sizes changed (``Capacities`` fields), e.g. ``grown(neighbours=128)``."""
+        return self.replace(capacities=self.capacities.replace(**changes))
 
     @property
     def coupling_method(self):

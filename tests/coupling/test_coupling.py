@@ -199,12 +199,12 @@ def test_body_pair_list_is_the_block_part_of_the_wall_list():
     np.testing.assert_array_equal(np.asarray(nb.body_row)[:m], row[keep])
     np.testing.assert_array_equal(np.asarray(nb.body_col)[:m], col[keep])
     sub = advance(state, params, config)
-    whole = advance(state, params, config.replace(body_pair_capacity=0))
+    whole = advance(state, params, config.grown(body_pairs=0))
     scale = float(jnp.linalg.norm(whole.coupling.force[0]))
     np.testing.assert_allclose(np.asarray(sub.coupling.force), np.asarray(whole.coupling.force), rtol=0, atol=1e-5 * scale)
     np.testing.assert_allclose(np.asarray(sub.coupling.torque), np.asarray(whole.coupling.torque), rtol=0,
                                atol=1e-5 * scale * 0.2)
-    _, short, status = jax.jit(rebuild, static_argnums=1)(state.particles, config.replace(body_pair_capacity=m - 8))
+    _, short, status = jax.jit(rebuild, static_argnums=1)(state.particles, config.grown(body_pairs=m - 8))
     assert int(status) & rj.Status.BODY_PAIR_OVERFLOW and int(short.body_count) == m
 
 
@@ -215,7 +215,7 @@ def test_driver_grows_the_body_pair_list():
     scene = block_drop(dx=0.025, box_size=(0.1, 0.1, 0.1), tank_size=(0.3, 0.3), water_depth=0.15,
                        drop_height=0.02, coupling=Coupling.BOUNDARY_PARTICLES)
     ref = rj.simulate(scene, t_end=0.08, frame_dt=0.04, progress=False)
-    tight = scene.replace(config=scene.config.replace(body_pair_capacity=8))
+    tight = scene.replace(config=scene.config.grown(body_pairs=8))
     grown = rj.simulate(tight, t_end=0.08, frame_dt=0.04, progress=False)
     assert int(ref.state.nbrs.max_body_count) > 8, "the box must be in the water by the end"
     assert grown.stats["regrows"] >= 1

@@ -16,7 +16,7 @@ def small():
 
 
 def test_regrows_neighbour_buffer_and_matches(small, tmp_path):
-    tight = small.replace(config=small.config.replace(neighbour_capacity=16))
+    tight = small.replace(config=small.config.grown(neighbours=16))
     ref = rj.simulate(small, t_end=0.02, frame_dt=0.01, progress=False)
     grown = rj.simulate(tight, t_end=0.02, frame_dt=0.01, progress=False, out=str(tmp_path / "g.h5"), keep_frames=True)
     assert grown.stats["regrows"] >= 1

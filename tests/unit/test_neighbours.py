@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from rockjax.scenes.base import empty_neighbours
 from rockjax.sph.neighbours import range_capacity, rebuild
-from rockjax.types import Config, GridSpec, Kind, Particles, Status
+from rockjax.types import Capacities, Config, GridSpec, Kind, Particles, Status
 
 
 def _particles(x, kind):
@@ -42,7 +42,7 @@ def _check(x, n_fluid, periodic, radius=0.1, K=64, C=64, box=(1.0, 0.6, 0.5), pa
     if pad_kinds is not None:
         kind[pad_kinds] = Kind.PAD
     cfg = Config(n_fluid=n_fluid, n_wall=len(x) - n_fluid, dt=1e-4, grid=grid, cutoff=radius, skin=0.0,
-                 neighbour_capacity=K, cell_capacity=C, wall_pair_capacity=n_fluid * K if M is None else M,
+                 capacities=Capacities(neighbours=K, cells=C, wall_pairs=n_fluid * K if M is None else M),
                  n_block_particles=n_block)
     P, nbrs, status = _jit_rebuild(_particles(x, kind), cfg)
     xs = np.asarray(P.x, np.float64)
@@ -179,7 +179,7 @@ def test_out_of_domain_is_reported():
 
 def test_empty_neighbours_shapes():
     grid = GridSpec.covering((0, 0, 0), (1, 1, 1), min_cell=0.2)
-    cfg = Config(n_fluid=5, n_wall=3, dt=1e-4, grid=grid, cutoff=0.2, skin=0.0, neighbour_capacity=16)
+    cfg = Config(n_fluid=5, n_wall=3, dt=1e-4, grid=grid, cutoff=0.2, skin=0.0, capacities=Capacities(neighbours=16))
     nb = empty_neighbours(cfg, np.zeros((8, 3)))
     assert nb.idx.shape == (5, 16)
     assert np.all(np.asarray(nb.idx) == np.arange(5)[:, None])
@@ -199,7 +199,7 @@ def moving_column():
 
     scene = rj.scenes.dam_break(dx=0.125, skin_factor=0.1, rebuild_every=16)
     # a 0.1 dx skin makes search sub-cells small: more room per cell run than the scene's default
-    config, params = scene.config.replace(cell_capacity=256), scene.params
+    config, params = scene.config.grown(cells=256), scene.params
     P = scene.state.particles
     v = np.where((np.asarray(P.kind) == Kind.FLUID)[:, None], np.array([2.0, 0.0, 0.0]), 0.0).astype(P.v.dtype)
     state = scene.state.replace(particles=P.replace(v=jax.numpy.asarray(v)))
@@ -249,8 +249,8 @@ def test_vmapped_build_keeps_its_conditionals_and_equals_each_member():
     nf, nw, box = 60, 40, np.array([1.0, 0.6, 0.5])
     kind = np.array([Kind.FLUID] * nf + [Kind.WALL] * nw, np.int32)
     grid = GridSpec.covering((0, 0, 0), tuple(box), min_cell=0.1, periodic=(False, False, False))
-    cfg = Config(n_fluid=nf, n_wall=nw, dt=1e-4, grid=grid, cutoff=0.1, skin=0.0, neighbour_capacity=64,
-                 cell_capacity=64, wall_pair_capacity=nf * 64)
+    cfg = Config(n_fluid=nf, n_wall=nw, dt=1e-4, grid=grid, cutoff=0.1, skin=0.0,
+                 capacities=Capacities(neighbours=64, cells=64, wall_pairs=nf * 64))
     members = [_particles(rng.uniform(0, 1, (nf + nw, 3)) * box, kind) for _ in range(2)]
     members[0] = _jit_rebuild(members[0], cfg)[0]  # its walls now sorted by cell; the other's not
     batch = jax.tree_util.tree_map(lambda *a: jnp.stack(a), *members)

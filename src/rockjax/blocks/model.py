@@ -136,9 +136,8 @@ class BlockConfig:
         phase compacts the candidate pairs at the front of the buffer, and with
         ``skip_separated`` the pairs to evaluate are gathered before the separated ones, so a
         half-empty buffer costs about half). 0, or >= pair_capacity: one pass over every slot.
-        16 (since 2026-11-27; was 64): 3.4x on a 10-rock pile (13 candidate pairs, a few
-        evaluated) and 2.6x on 10 boxes, within 2 % on 100-rock and 100-box piles
-        (``bench_blocks.py --ab-segments 64 16``, RESULTS.md).
+        16 by default: much faster than 64 on piles where few candidate pairs are evaluated
+        (10 rocks or boxes), the same on 100-block piles (RESULTS.md, "pair segments").
       skip_separated: a pair whose stored common plane still separates it by more than the
         contact tolerances can reach across (``contact.separated_pairs``; for a 12-vertex rock
         ~1e-4 of its size, plus the joint aperture with joint water) is not evaluated that step: no

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..sph.kernels import SUPPORT_FACTOR
 from ..sph.schemes import FluidScheme, from_names
-from ..types import Config, FluidParams, GridSpec, Kind, NeighbourList, Params, Particles, State, float_dtype
+from ..types import Capacities, Config, FluidParams, GridSpec, Kind, NeighbourList, Params, Particles, State, float_dtype
 from .meta import SceneMeta
 
 __all__ = [
@@ -378,8 +378,8 @@ def fluid_scene(*, name: str, dx: float, fluid_x: np.ndarray, wall_x: np.ndarray
     dt = stable_dt(params, scheme=scheme, cfl=cfl)
     config = Config(
         n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=L.grid, cutoff=L.cutoff, skin=L.skin,
-        rebuild_every=rebuild_every, neighbour_capacity=L.neighbour_capacity, cell_capacity=L.cell_capacity,
-        wall_pair_capacity=L.wall_pair_capacity, scheme=scheme, cfl=cfl,
+        rebuild_every=rebuild_every, capacities=Capacities(neighbours=L.neighbour_capacity, cells=L.cell_capacity,
+                                                           wall_pairs=L.wall_pair_capacity), scheme=scheme, cfl=cfl,
     )
     state = make_state(config=config, x=L.x, kind=L.kind, vol=L.vol, rho=L.rho)
     return Scene(config=config, params=params, state=state, meta=SceneMeta.from_dict(dict(meta, name=name, dx=dx)))

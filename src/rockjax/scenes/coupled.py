@@ -19,7 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..sph.schemes import WCSPH, FluidScheme
-from ..types import Config, Coupling, CouplingParams, State, float_dtype
+from ..types import Capacities, Config, Coupling, CouplingParams, State, float_dtype
 from .base import GRAVITY, Resolution, Scene, _ceil8, _positive, as_scheme, make_state, particle_layout, stable_dt, water_params
 from .block_sampling import sample_block_particles, submerged_pair_count
 from .meta import SceneMeta
@@ -177,9 +177,9 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     dt = min(dt, dt_blocks)
     meta["block_normal_stiffness"] = float(bparams.normal_stiffness)
     config = Config(n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=L.grid, cutoff=L.cutoff, skin=L.skin,
-                    rebuild_every=rebuild_every, neighbour_capacity=L.neighbour_capacity,
-                    cell_capacity=L.cell_capacity, wall_pair_capacity=L.wall_pair_capacity,
-                    body_pair_capacity=body_pair_capacity,
+                    rebuild_every=rebuild_every,
+                    capacities=Capacities(neighbours=L.neighbour_capacity, cells=L.cell_capacity,
+                                          wall_pairs=L.wall_pair_capacity, body_pairs=body_pair_capacity),
                     n_block_particles=n_block_particles, scheme=scheme, cfl=cfl, blocks=bconfig, coupling=coupling,
                     coupling_guard=bool(coupling_guard), guard_fixed=bool(guard_fixed))
     state = make_state(config=config, x=L.x, kind=L.kind, vol=vol, rho=L.rho)

@@ -26,7 +26,7 @@ fluid row as the neighbour, ``fluid_j`` False (the pair has a non-fluid end: wal
 diffusion) and ``g_r = g_p = 0``: the wall columns' cotangents as the pairs' j ends.
 
 Tested against the generic VJP in float64 (``tests/gradients/test_pair_sum_adjoint.py``).
-Measured (2026-11-26, ``experiments/bench_grad.py --adjoint-ab``): see ``pair_sum``'s docstring.
+Speed: ``experiments/bench_grad.py --adjoint-ab`` (RESULTS.md, "adjoint").
 """
 
 from __future__ import annotations

@@ -47,17 +47,15 @@ front RMS error, unshifted; as printed the scheme gives 0.40):
 An option, not the paper's (``SeedScheme(gradient=Poly6Gradient())``): the pressure force with
 the gradient of the poly6 kernel that sums the density (normalised alike) instead of the spiky one.
 With the spiky gradient the force is not the gradient of the scheme's elastic energy (``energies``),
-and the water never comes to rest: the stress suite's collapsed column (a/dx = 4, float32, 11 s;
-``experiments/seed_rest.py``, 2026-11-28) keeps a kinetic energy of 2-4e-2 m g 2a and its total
-energy rebounds by 2.3e-2 (m g 2a); with the poly6 gradient the kinetic energy is 3.5e-4 at 2 s and
-3.5e-5 at 11 s, the rebound 2.6e-4, and its 2D dam-break front is as good (front error 0.056 / 0.046
-at a/dx = 10 / 20 against 0.063 / 0.051). The kernels are the cause, not the paper's form
-``(p_i + p_j) / (2 rho_j)``: the energy-conserving form ``p_i / rho_i^2 + p_j / rho_j^2`` wanders as
-much with the spiky gradient (rebound 5.9e-2) and settles with the poly6 one (4.2e-4).
+and the water never comes to rest (the stress suite's collapsed column keeps a kinetic energy of
+~2e-2 m g 2a); with the poly6 gradient it settles, and its 2D dam-break front is as good. The kernels
+are the cause, not the paper's form ``(p_i + p_j) / (2 rho_j)``: the energy-conserving form
+``p_i / rho_i^2 + p_j / rho_j^2`` wanders as much with the spiky gradient and settles with the poly6
+one (RESULTS.md, "seed scheme at rest"; ``experiments/seed_rest.py``).
 
 Pressure scale: Mueller's symmetrised force ``(p_i + p_j) / 2`` (Eq 14) is half the SPH estimate of
 the pressure gradient, so the scheme's ``p`` at rest is about twice the hydrostatic pressure (a still
-tank, 2026-11-28: 1.99-2.10 with the spiky gradient, 1.5-1.9 with poly6; ``experiments/seed_rest.py
+tank: 2.0-2.1 times with the spiky gradient, 1.5-1.9 with poly6; ``experiments/seed_rest.py
 --hydrostatic``) and its sound speed c0 / sqrt(2): the forces (and a block's loads, taken from them)
 carry p / 2. ``energies`` keeps the elastic energy of ``p`` itself (noticed, not changed: the
 energy the scheme approximately conserves has half that elastic term).

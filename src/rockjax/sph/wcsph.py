@@ -69,11 +69,9 @@ def _terms(pr: Pairs, kind, params, config, terms: Optional[PairTerms]) -> PairT
 #: ``det C`` range over which the renormalised gradient is faded out (weight 1 above, 0 below):
 #: ``C = I`` inside the fluid, det 1/8 at a flat free surface, less at free edges and corners and
 #: for splashing particles with a few neighbours. There the Antuono term falls back smoothly to
-#: Molteni's (gradient 0, which only dissipates). Chosen 2026-11-25 (``tests/stress`` scene,
-#: a/dx 4, 16 s; ``test_energy``'s impact, a/dx 6): with a hard switch to the uncorrected gradient
-#: below det 1e-3 the impact raised the energy by 5.3e-3 m g 2a within a frame, with this fade
-#: 2.6e-3; fading above 0.05 left more particles uncorrected and the water at rest lost energy
-#: steadily (-2.1e-3 to -2.9e-3 over 8 s).
+#: Molteni's (gradient 0, which only dissipates). Chosen on the stress suite's column and
+#: ``test_energy``'s impact: a hard switch to the uncorrected gradient let the impact raise the
+#: energy twice as much; fading from higher up left the water at rest losing energy steadily.
 RENORMALISATION_DET_RANGE = (0.02, 0.06)
 
 
@@ -174,12 +172,9 @@ def _diffusion_pairs(kind_j, rho_j, params: Params, config: Config):
     """Which pairs [R, K] the density diffusion runs over: the fluid pairs (``kind_j`` the
     neighbours' kinds, ``rho_j`` their densities; the signature lets experiments try others).
 
-    Tried 2026-11-26 and not kept: the wet Adami wall pairs too (wall density above rho0;
-    DualSPHysics' "full" Fourtakas variant), whose densities are the fluid's pressure extrapolated
-    with its hydrostatic part. At rest they helped little (``tests/stress``'s tank, a/dx = 4,
-    float64, 36.7 s: rebound 3.8e-3 vs 4.0e-3 m g 2a, ``experiments/energy_creep.py --variants``),
-    and in the 20 m/s block impact (``tests/stress/test_impact.py``, boundary particles) they let
-    4 water particles through the tank's walls (none without them).
+    Not the wet Adami wall pairs too (DualSPHysics' "full" Fourtakas variant): at rest they helped
+    little, and in the stress suite's 20 m/s block impact they let water through the tank's walls
+    (``experiments/energy_creep.py --variants``; docs/notes.md).
     """
     return kind_j == Kind.FLUID
 
