@@ -52,14 +52,26 @@ def main(argv=None):
     ap.add_argument("--by", nargs="*", default=["bench", "n_blocks"], help="record fields that group the summary")
     ap.add_argument("--worktrees", default="/tmp/rockjax_ab")
     ap.add_argument("--out", default=None)
+    ap.add_argument("--summarize", default=None, metavar="FILE",
+                    help="instead of running: the summary records of the per-round records in FILE (an earlier --out)")
     ap.add_argument("script", nargs=argparse.REMAINDER, help="-- SCRIPT [ARGS...], run with the commit's src first on PYTHONPATH")
     a = ap.parse_args(argv)
     script = a.script[1:] if a.script[:1] == ["--"] else a.script
+    if a.summarize:
+        runs: dict = {}
+        for line in open(a.summarize):
+            rec = json.loads(line)
+            if rec.get("bench") != "ab_commits" and a.metric in rec and rec.get("commit_arg") in a.commits:
+                runs.setdefault(tuple(rec.get(k) for k in a.by), {}).setdefault(rec["commit_arg"], []).append(
+                    float(rec[a.metric]))
+        _summary(a, runs, dict(date=time.strftime("%Y-%m-%d"), cmd="experiments/ab_commits.py "
+                               + " ".join(sys.argv[1:] if argv is None else argv)))
+        return
     if not script:
         ap.error("give the benchmark script after --")
     trees = [worktree(c, a.worktrees) for c in a.commits]
     stamp = dict(date=time.strftime("%Y-%m-%d"), cmd="experiments/ab_commits.py " + " ".join(sys.argv[1:] if argv is None else argv))
-    best: dict = {}
+    runs: dict = {}
     for rnd in range(a.repeats):
         for (sha, path), name in zip(trees, a.commits):
             env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.join(path, "src"), HERE]))
@@ -76,15 +88,25 @@ def main(argv=None):
                 emit(dict(rec, commit=sha[:12], commit_arg=name, round=rnd, **stamp,
                           load_avg_1m_at_save=os.getloadavg()[0]), a.out)
                 if a.metric in rec:
-                    key = tuple(rec.get(k) for k in a.by)
-                    b = best.setdefault(key, {})
-                    b[name] = max(b.get(name, float("-inf")), float(rec[a.metric]))
-    for key, b in best.items():
-        ref = b.get(a.commits[0])
-        emit(dict(bench="ab_commits", **dict(zip(a.by, key)), metric=a.metric,
-                  commits={n: _git("rev-parse", "--short=12", n) for n in a.commits}, best=b,
-                  ratio_to_first={n: v / ref for n, v in b.items()} if ref else None, repeats=a.repeats, **stamp),
-             a.out)
+                    runs.setdefault(tuple(rec.get(k) for k in a.by), {}).setdefault(name, []).append(float(rec[a.metric]))
+    _summary(a, runs, stamp)
+
+
+def _summary(a, runs: dict, stamp: dict) -> None:
+    """One record per group: each commit's best and median ``--metric`` over the rounds and their
+    ratios to the first commit's (a grouping key named ``bench`` is recorded as ``of_bench``)."""
+    import statistics
+
+    for key, by_commit in runs.items():
+        best = {n: max(v) for n, v in by_commit.items()}
+        median = {n: statistics.median(v) for n, v in by_commit.items()}
+        ref, ref_m = best.get(a.commits[0]), median.get(a.commits[0])
+        group = {("of_bench" if k == "bench" else k): v for k, v in zip(a.by, key)}
+        emit(dict(bench="ab_commits", **group, metric=a.metric,
+                  commits={n: _git("rev-parse", "--short=12", n) for n in a.commits}, best=best, median=median,
+                  ratio_to_first={n: v / ref for n, v in best.items()} if ref else None,
+                  median_ratio_to_first={n: v / ref_m for n, v in median.items()} if ref_m else None,
+                  repeats=max(len(v) for v in by_commit.values()), **stamp), a.out)
 
 
 if __name__ == "__main__":

@@ -116,11 +116,14 @@ def main(argv=None):
     ap.add_argument("--out", default=None)
     ap.add_argument("--compare", nargs=2, default=None)
     ap.add_argument("--dump", default=None, help="directory: also write each jaxpr's text")
+    ap.add_argument("--record", default=None, help="with --compare: append one JSON line per case and program here")
+    ap.add_argument("--label", default="", help="with --record: what the two files are (e.g. 'a12d93b vs HEAD')")
     args = ap.parse_args(argv)
     if args.compare:
         a = {r["case"]: r for r in map(json.loads, open(args.compare[0]))}
         b = {r["case"]: r for r in map(json.loads, open(args.compare[1]))}
         bad = 0
+        rec = open(args.record, "a") if args.record else None
         for k in a:
             if k not in b:
                 print(f"{k}: missing in {args.compare[1]}")
@@ -130,6 +133,12 @@ def main(argv=None):
                 same = a[k][key] == b[k][key]
                 bad += not same
                 print(f"{k:16s} {key:5s} {'same' if same else 'DIFFERENT'} ({a[k][key + '_eqns']} / {b[k][key + '_eqns']} lines)")
+                if rec:
+                    import time
+
+                    rec.write(json.dumps(dict(bench="jaxpr_fingerprint", case=k, program=key, same=same,
+                                              lines_before=a[k][key + "_eqns"], lines_after=b[k][key + "_eqns"],
+                                              label=args.label, date=time.strftime("%Y-%m-%d"))) + "\n")
         return 1 if bad else 0
     import rockjax as rj
 

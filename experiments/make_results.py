@@ -1037,8 +1037,54 @@ def sec_gpu(doc: Doc):
                          for r in recs]))
 
 
+def sec_redesign(doc: Doc):
+    doc.h("Redesign (issue 43): the same programs, the same speed")
+    recs = doc.records("redesign_jaxpr.jsonl",
+                       "python experiments/jaxpr_fingerprint.py --out before.jsonl (old commit), --out after.jsonl (new); "
+                       "--compare before.jsonl after.jsonl --record experiments/results/redesign_jaxpr.jsonl")
+    if recs:
+        doc.p("Every scheme term and coupling traced before and after the redesign (`jaxpr_fingerprint.py`: a "
+              "hash of the jaxpr of one step, of a two-step gradient and of `prime`, names of jitted functions "
+              "stripped; tiny scenes, tracing only). Equal hashes are the same primitives in the same order with the "
+              "same shapes: the same numbers and the same speed. `lines` = jaxpr lines before / after.")
+        label = recs[-1].get("label", "")
+        last = [r for r in recs if r.get("label") == label]
+        cases = list(dict.fromkeys(r["case"] for r in last))
+        rows = []
+        for c in cases:
+            by = {r["program"]: r for r in last if r["case"] == c}
+            rows.append([c] + [("same" if by[k]["same"] else f"differs ({by[k]['lines_before']} / {by[k]['lines_after']})")
+                               if k in by else "-" for k in ("step", "grad", "prime")] + [last[0].get("date")])
+        doc.p(f"{label}:")
+        doc.p(table(["case", "step", "gradient", "prime", "date"], rows))
+        doc.p("`dam_laminar`: the laminar term's two multiplies are evaluated in another order (the same values). "
+              "The wedge and incline cases differ in the blocks' contact stage, which became `blocks/laws.py` "
+              "(contact law object) and `BlockState.history`: forces bit-identical, torques a few ULP apart "
+              "(XLA's fused multiply-adds grouped differently); timed below.")
+    for name, metric, what in (("redesign_ab_blocks.jsonl", "block_steps_per_s", "100-box pile (bench_blocks.py)"),
+                               ("redesign_ab_wedge.jsonl", "fluid_particle_steps_per_s",
+                                "sliding wedge, penalty coupling, dx 0.04 m (bench_coupled.py, full coupled step)"),
+                               ("bench_blocks_laws_commits.jsonl", "block_steps_per_s",
+                                "10- and 100-box piles, the contact-law commit alone (machine at load 3.4-4.7)")):
+        recs = [r for r in doc.records(name, f"python experiments/ab_commits.py --commits OLD NEW --metric {metric} "
+                                             f"... -- BENCHMARK") or [] if r.get("bench") == "ab_commits"]
+        if not recs:
+            continue
+        doc.p(f"Before / after, {what}: `experiments/ab_commits.py`, the same benchmark against each commit's code "
+              "in fresh processes, alternated round by round; best of the rounds.")
+        rows = []
+        for r in recs:
+            (a, b) = list(r["commits"])[:2]
+            rows.append([r.get("n_blocks") or r.get("dx") or "-", f"{a} ({r['commits'][a][:7]})",
+                         f"{b} ({r['commits'][b][:7]})", r["best"].get(a), r["best"].get(b),
+                         (r.get("ratio_to_first") or {}).get(b), (r.get("median_ratio_to_first") or {}).get(b, "-"),
+                         r.get("repeats"), r.get("date")])
+        doc.p(table(["size", "before", "after", f"before best {metric}", f"after best {metric}",
+                     "after / before (best)", "(median)", "rounds", "date"], rows))
+
+
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
-            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_stress]
+            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_redesign, sec_stress]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:
