@@ -142,13 +142,13 @@ def _grow(config: Config, period: int, state: State, bits: int) -> tuple[Config,
     """Capacities grown for the overflow bits; the forced-rebuild period halved for a stale list."""
     changes = {}
     b = config.blocks
-    grown = {}  # BlockConfig fields
+    grown = {}  # BlockCapacities fields
     if bits & Status.CONTACT_OVERFLOW:
-        grown["pair_capacity"] = _round8(2 * b.pair_capacity)
+        grown["pairs"] = _round8(2 * b.pair_capacity)
     if bits & Status.JOINT_PATCH_OVERFLOW:
         grown["joint_patch_points"] = 2 * b.joint_patch_points
     if bits & Status.BLOCK_CELL_OVERFLOW:
-        grown["grid_cell_capacity"] = 2 * b.grid_cell_capacity
+        grown["cell_blocks"] = 2 * b.grid_cell_capacity
     if bits & Status.CONTACT_POINT_OVERFLOW:
         grown["law_slots"] = min(2 * b.law_slots, b.contact_slots)
     if bits & Status.CROSSING_EDGE_OVERFLOW:
@@ -158,7 +158,7 @@ def _grow(config: Config, period: int, state: State, bits: int) -> tuple[Config,
     if bits & Status.FCP_CROSS_OVERFLOW:
         grown["fcp_crosses"] = min(2 * b.fcp_crosses, b.support_edges ** 2)
     if grown:
-        changes["blocks"] = dataclasses.replace(b, **grown)
+        changes["blocks"] = b.grown(**grown)
     caps = {}  # Capacities fields
     if bits & Status.NEIGHBOUR_OVERFLOW:
         caps["neighbours"] = max(_round8(1.2 * int(state.nbrs.max_count)), config.neighbour_capacity + 8)

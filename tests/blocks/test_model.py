@@ -97,13 +97,13 @@ def test_grid_broadphase_matches_all_pairs_and_flags_overflow():
     assert c_grid.large_blocks == (n,)
     Xw = rb.world_vertices(s_all)
     p1, m1, st1 = candidate_pairs(c_all, Xw, s_all.shape.vertex_mask)
-    c_grid = type(c_grid)(**{**c_grid.__dict__, "aabb_margin": c_all.aabb_margin})
+    c_grid = c_grid.replace(aabb_margin=c_all.aabb_margin)
     p2, m2, st2 = candidate_pairs(c_grid, Xw, s_all.shape.vertex_mask)
     set1 = {tuple(p) for p in np.asarray(p1)[np.asarray(m1)]}
     set2 = {tuple(p) for p in np.asarray(p2)[np.asarray(m2)]}
     assert int(st1) == 0 and int(st2) == 0
     assert len(set1) > 10 and set1 == set2
-    small = type(c_grid)(**{**c_grid.__dict__, "pair_capacity": len(set1) - 1})
+    small = c_grid.grown(pairs=len(set1) - 1)
     _, _, st3 = candidate_pairs(small, Xw, s_all.shape.vertex_mask)
     assert int(st3) == Status.CONTACT_OVERFLOW
     # a grid cell holding more blocks than its capacity: its own bit, which the driver cures by
@@ -111,13 +111,45 @@ def test_grid_broadphase_matches_all_pairs_and_flags_overflow():
     from rockjax.driver import _grow
     from rockjax.types import Config
 
-    crowded = type(c_grid)(**{**c_grid.__dict__, "grid_cell_capacity": 1, "grid_cell_size": 1.0})
+    crowded = c_grid.grown(cell_blocks=1).replace(grid_cell_size=1.0)
     _, _, st4 = candidate_pairs(crowded, Xw, s_all.shape.vertex_mask)
     assert int(st4) & Status.BLOCK_CELL_OVERFLOW and Status.BLOCK_CELL_OVERFLOW & Status.growable()
     grown, _ = _grow(Config(n_fluid=0, n_wall=0, dt=1e-4, grid=None, cutoff=0.0, skin=0.0, blocks=crowded), 8, None,
                      int(st4))
     assert grown.blocks.grid_cell_capacity == 2
 
+
+
+def test_block_capacities_and_tuning_apart_from_physics():
+    """The buffer sizes (``BlockCapacities``) and speed settings (``BlockTuning``) are objects of
+    their own on ``BlockConfig``, read under their old names and changed by ``grown`` / ``tuned``
+    (physics fields untouched); a bad value is refused naming the field."""
+    cfg, _, _ = make_blocks([slab(4, 4, 0.5), box(1, 1, 1)], motion=[Motion.FIXED, Motion.DYNAMIC],
+                            positions=np.array([[0, 0, -0.25], [0, 0, 0.5]]), pair_segment=4, law_slots=16)
+    assert isinstance(cfg.capacities, rb.BlockCapacities) and isinstance(cfg.tuning, rb.BlockTuning)
+    assert cfg.pair_capacity == cfg.capacities.pairs == 1 and cfg.law_slots == 16 and cfg.pair_segment == 4
+    assert cfg.grid_cell_capacity == cfg.capacities.cell_blocks == 32 and cfg.skip_separated
+    big = cfg.grown(pairs=8, law_slots=32)
+    assert (big.pair_capacity, big.law_slots, big.crossing_edges) == (8, 32, cfg.crossing_edges)
+    assert big.tuning == cfg.tuning and big.replace(capacities=cfg.capacities) == cfg
+    fast = cfg.tuned(pair_segment=0, skip_separated=False)
+    assert (fast.pair_segment, fast.skip_separated, fast.capacities) == (0, False, cfg.capacities)
+    assert hash(cfg.grown(pairs=1)) == hash(cfg)  # static jit argument: equal configs hash alike
+    with pytest.raises(AttributeError):
+        cfg.pair_capacity = 4  # read-only: grow it with grown(pairs=...)
+    for bad, field in ((dict(pairs=0), "BlockCapacities.pairs"), (dict(joint_patch_points=2), "joint_patch_points"),
+                       (dict(law_slots=-1), "law_slots"), (dict(cell_blocks=1.5), "cell_blocks"),
+                       (dict(fcp_crosses=True), "fcp_crosses")):
+        with pytest.raises(ValueError, match=field):
+            cfg.grown(**bad)
+    with pytest.raises(ValueError, match="BlockTuning.pair_segment"):
+        cfg.tuned(pair_segment=-1)
+    with pytest.raises(ValueError, match="skip_separated"):
+        rb.BlockTuning(skip_separated="yes")
+    with pytest.raises(ValueError, match="BlockConfig.capacities"):
+        cfg.replace(capacities=None)
+    with pytest.raises(TypeError):
+        cfg.grown(pair_capacity=8)  # the fields are BlockCapacities' (pairs, cell_blocks, ...)
 
 @pytest.mark.slow
 def test_stack_of_five_at_rest():

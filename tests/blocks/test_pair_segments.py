@@ -65,7 +65,7 @@ def _rollout(cfg, n_steps, dt):
 
 
 def _one_pass(cfg):
-    return dataclasses.replace(cfg, pair_segment=0, law_slots=0, crossing_edges=0)
+    return cfg.tuned(pair_segment=0).grown(law_slots=0, crossing_edges=0)
 
 
 def _by_feature(history):
@@ -222,7 +222,7 @@ def test_crossing_edges_overflow_flagged_and_grown(x64):
     assert Status.CROSSING_EDGE_OVERFLOW & Status.growable()
     cfg2, _, _ = make_blocks(shapes, crossing_edges=2, **kw)
     assert grown_by_driver(cfg2, Status.CROSSING_EDGE_OVERFLOW).crossing_edges == 4
-    assert grown_by_driver(dataclasses.replace(cfg2, crossing_edges=8),
+    assert grown_by_driver(cfg2.grown(crossing_edges=8),
                            Status.CROSSING_EDGE_OVERFLOW).crossing_edges == 12 == cfg2.max_edges
     with pytest.raises(ValueError, match="crossing_edges"):
         make_blocks(shapes, crossing_edges=-1, **kw)
@@ -230,7 +230,7 @@ def test_crossing_edges_overflow_flagged_and_grown(x64):
     h4 = out[4][4]
     st4 = make_blocks(shapes, crossing_edges=4, **kw)[2]
     st4 = st4.replace(history=h4)
-    wide = rb.fit_history(dataclasses.replace(cfg2, crossing_edges=8, law_slots=64), st4)
+    wide = rb.fit_history(cfg2.grown(crossing_edges=8, law_slots=64), st4)
     L = cfg2.law_slots
     wide = wide.history
     assert wide.shear.shape[1] == 64 > L
@@ -298,9 +298,9 @@ def test_support_edges_overflow_flagged_and_grown(x64):
     shapes, _ = _rock_pair()
     cfg = _check_fcp_buffer("support_edges", 2, Status.SUPPORT_EDGE_OVERFLOW)
     assert cfg.support_edges == max(p.support_directions() for p in shapes) < cfg.max_edges
-    cfg2 = dataclasses.replace(cfg, support_edges=2)
+    cfg2 = cfg.grown(support_edges=2)
     assert grown_by_driver(cfg2, Status.SUPPORT_EDGE_OVERFLOW).support_edges == 4
-    assert grown_by_driver(dataclasses.replace(cfg2, support_edges=24),
+    assert grown_by_driver(cfg2.grown(support_edges=24),
                            Status.SUPPORT_EDGE_OVERFLOW).support_edges == cfg2.max_edges
 
 
@@ -311,6 +311,6 @@ def test_fcp_crosses_overflow_flagged_and_grown(x64):
     growable bit), and the driver's ``_grow`` doubles it (at most ``support_edges^2``)."""
     cfg = _check_fcp_buffer("fcp_crosses", 4, Status.FCP_CROSS_OVERFLOW)
     assert 0 < cfg.fcp_crosses < cfg.support_edges ** 2
-    assert grown_by_driver(dataclasses.replace(cfg, fcp_crosses=4), Status.FCP_CROSS_OVERFLOW).fcp_crosses == 8
-    assert grown_by_driver(dataclasses.replace(cfg, fcp_crosses=cfg.support_edges ** 2 - 8),
+    assert grown_by_driver(cfg.grown(fcp_crosses=4), Status.FCP_CROSS_OVERFLOW).fcp_crosses == 8
+    assert grown_by_driver(cfg.grown(fcp_crosses=cfg.support_edges ** 2 - 8),
                            Status.FCP_CROSS_OVERFLOW).fcp_crosses == cfg.support_edges ** 2

@@ -16,7 +16,6 @@ in the other, so the pair has no contact point and zero force. Checked here (flo
 
 from __future__ import annotations
 
-import dataclasses
 
 import jax
 import jax.numpy as jnp
@@ -65,7 +64,7 @@ def _by_feature(h):
 
 def test_skipping_separated_pairs_changes_no_load(pile):
     cfg, par, st = pile
-    every = dataclasses.replace(cfg, skip_separated=False)
+    every = cfg.tuned(skip_separated=False)
     dt = 0.5 * float(rb.stable_dt(cfg, par, st))
     g = jnp.asarray(GRAV)
     forces = {c.skip_separated: jax.jit(lambda s, c=c: rb.contact_forces(s, par, c, dt=dt, gravity=g,

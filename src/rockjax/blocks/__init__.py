@@ -2,7 +2,8 @@
 
 * ``geometry`` (host, numpy): convex polyhedra with half-edge tables, mass properties, packing;
   shape helpers ``box``, ``wedge``, ``prism``, ``slab`` (floor), ``slope`` (inclined plane).
-* ``model``: ``Motion``, ``Broadphase``, ``BlockConfig`` (static), ``BlockParams``, ``BlockShape``,
+* ``model``: ``Motion``, ``Broadphase``, ``BlockConfig`` (static; its buffer sizes ``BlockCapacities``
+  and speed settings ``BlockTuning``), ``BlockParams``, ``BlockShape``,
   ``BlockState`` (with its ``ContactHistory``); ``make_blocks`` (host builder), ``stable_dt`` (seed Eq 8),
   world geometry, energies.
 * ``broadphase``: AABBs, all-pairs or sorted uniform grid, fixed-capacity pair buffer.
@@ -21,10 +22,12 @@ from .geometry import ConvexPolyhedron, PackedBlocks, box, pack, prism, slab, sl
 from .integrate import advance_blocks, prescribed_motion
 from .laws import ContactLaw, ContactPoint, LawResult, PenaltyCoulomb
 from .model import (
+    BlockCapacities,
     BlockConfig,
     BlockParams,
     BlockShape,
     BlockState,
+    BlockTuning,
     Broadphase,
     ContactHistory,
     Motion,
@@ -41,10 +44,12 @@ from .model import (
 from .rotation import quat_from_axis_angle, quat_matrix
 
 __all__ = [
+    "BlockCapacities",
     "BlockConfig",
     "BlockParams",
     "BlockShape",
     "BlockState",
+    "BlockTuning",
     "Broadphase",
     "ContactHistory",
     "ContactLaw",

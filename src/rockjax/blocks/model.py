@@ -31,6 +31,8 @@ __all__ = [
     "Motion",
     "Broadphase",
     "BlockConfig",
+    "BlockCapacities",
+    "BlockTuning",
     "BlockParams",
     "BlockShape",
     "BlockState",
@@ -63,43 +65,50 @@ class Broadphase(enum.Enum):
     GRID = "grid"  #: uniform grid built by sorting (many blocks); large blocks tested against all
 
 
+def _check_int(cls: str, name: str, value, lo: int) -> int:
+    """``value`` as an int >= ``lo``, or a ValueError naming ``cls.name``."""
+    import numbers
+
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < lo:
+        raise ValueError(f"{cls}.{name} must be an integer >= {lo} (got {value!r})")
+    return int(value)
+
+
 @dataclasses.dataclass(frozen=True)
-class BlockConfig:
-    """Static description of the blocks (hashable; a static argument of ``jax.jit``).
+class BlockCapacities:
+    """Sizes of the block side's buffers (static): ``make_blocks`` sizes them from the blocks, a
+    step sets an overflow status bit when one is too small, and the host driver grows it and
+    reruns the chunk (``driver._grow``). Nothing is dropped silently; a size changes the shapes a
+    step traces (so its time and memory), never which contacts are found. Read them on a
+    ``BlockConfig`` under their old names (``pair_capacity``, ``grid_cell_capacity``,
+    ``law_slots``, ...); change them with ``BlockConfig.grown(...)``.
 
     Attributes:
-      n_blocks: B.
-      max_vertices, max_faces, max_halfedges, max_edges: padded sizes V, F, E, nE.
-      max_valence: K, the most edges at one vertex (padding of the vertex stars used by FCP).
-      motion: per-block :class:`Motion`.
-      pair_capacity: P, the candidate-pair buffer; more overlapping AABB pairs set
-        ``Status.CONTACT_OVERFLOW`` (never silently dropped: grow with :func:`resize_pairs`).
-      fcp_iterations: fixed number of Fast Common Plane iterations per pair and step. Not run
-        for blocks with at most 8 edge directions each (boxes, prisms of up to 7 sides:
-        ``fcp.sat_start``) without joint water: their start holds every separating axis, so an
-        overlapping pair's plane is exact from the start.
-      broadphase: :class:`Broadphase`.
-      prescribed_direction: per block unit 3-vector of the piston motion ((0,0,0) if not PRESCRIBED).
-      prescribed_ramp: s, soft start of the piston: the amplitude grows as
-        ``(1 - cos(pi t / ramp)) / 2`` over the first ``ramp`` seconds (0: full amplitude at t = 0).
-      aabb_margin: m, added to every AABB half-size in the broad phase.
-      grid_cell_size: m, uniform-grid cell (GRID; default 1.5 x median block size, seed section 2).
-      grid_cell_capacity: most blocks per grid cell (GRID); more set BLOCK_CELL_OVERFLOW (the
-        driver doubles it).
-      large_blocks: blocks bigger than a grid cell (GRID): tested against every block directly.
-      edge_contacts: also use edge-edge crossings as contact points (default True).
+      pairs: P, the candidate-pair buffer (``BlockConfig.pair_capacity``); more overlapping AABB
+        pairs set ``Status.CONTACT_OVERFLOW`` (the driver doubles it, rounded up to 8;
+        :func:`resize_pairs` reshapes the state).
+      cell_blocks: most blocks per broad-phase grid cell (GRID; ``BlockConfig.grid_cell_capacity``);
+        more set ``Status.BLOCK_CELL_OVERFLOW`` (the driver doubles it).
+      joint_patch_points: the most points one pair's joint patch is built from: its active contact
+        points are gathered into this many slots before the O(slots^2) hull (a box pair has up to
+        16; ``contact_slots`` is 81). More set ``Status.JOINT_PATCH_OVERFLOW`` (doubled). >= 3.
+      law_slots: the contact law runs over this many slots per pair, into which the pair's active
+        contact points are gathered (in slot order); the shear history is kept per law slot with
+        the point's contact feature (``ContactHistory.contact_feature``) and follows the feature
+        from step to step: a box pair has up to 16 points (of its 81 ``contact_slots``). More set
+        ``Status.CONTACT_POINT_OVERFLOW`` (doubled, at most ``contact_slots``). 0, or >=
+        ``contact_slots``: the law runs over every slot (``BlockConfig.history_slots``).
       crossing_edges: the edge-edge crossings of a pair are sought among at most this many edges
         of each block: those with a part inside the other block (a box on a box has 4 each, 8 at
         most), gathered per pair, so a pair has ``crossing_edges^2`` crossing slots instead of
         ``max_edges^2`` (144 for boxes, ~900 for 12-vertex rocks). A block with more such edges
-        sets ``Status.CROSSING_EDGE_OVERFLOW``, which the driver cures by doubling it. 0, or
-        >= ``max_edges``: every edge of each block.
+        sets ``Status.CROSSING_EDGE_OVERFLOW`` (doubled). 0, or >= ``max_edges``: every edge.
       support_edges: each FCP round builds its edge candidates (seed types c, d) from at most this
         many edge directions touching each block's support set, gathered per pair: a face's
-        edges and those leaving its vertices, 12-19 of a 12-vertex rock's ~30 (14 on average) (``make_blocks``
-        sets the most any face of the blocks has, ``ConvexPolyhedron.support_directions``). A
-        support set touching more (near-coplanar faces within round-off) sets
-        ``Status.SUPPORT_EDGE_OVERFLOW``, which the driver cures by doubling it. 0, or >= the
+        edges and those leaving its vertices, 12-19 of a 12-vertex rock's ~30 (14 on average)
+        (``make_blocks`` sets the most any face of the blocks has,
+        ``ConvexPolyhedron.support_directions``). A support set touching more (near-coplanar
+        faces within round-off) sets ``Status.SUPPORT_EDGE_OVERFLOW`` (doubled). 0, or >= the
         blocks' edge directions: every direction (no gathering).
       fcp_crosses: with ``support_edges`` gathering, the ka x kb cross products of the directions
         touching the two support sets (seed type c) are enumerated into this many slots per round
@@ -110,32 +119,48 @@ class BlockConfig:
         and an edge against an edge (an edge cross), give at most the product of the directions
         touching each (``ConvexPolyhedron.support_directions``; averages over those rocks 14.4 x
         6.8 and 11.7 x 11.7, maxima 19 x 9 and 15 x 15). A round with more sets
-        ``Status.FCP_CROSS_OVERFLOW``, which the driver cures by doubling it. 0, or >=
+        ``Status.FCP_CROSS_OVERFLOW`` (doubled, at most ``support_edges^2``). 0, or >=
         ``support_edges^2``: every slot. 128 instead of 361: 1.26x on the 100-rock pile (1.34x in
         an earlier A/B); on a 10-rock pile (one or two evaluated pairs a step) 128 instead of 256:
         0.92x (best of three, medians equal) (``bench_blocks.py --ab-fcp-crosses``, RESULTS.md).
-      inside_tolerance: relative (to the block's bounding radius) tolerance of the
-        point-in-block test that decides which vertices / crossings are contact points.
-      penetration_limit: depth / min(bounding radius) above which BLOCK_PENETRATION is set.
-      joint_water: the contact patches carry the hydrostatic pressure of a still water level
-        (``BlockParams.joint_water_level``; module ``joint_water``). Off: nothing is traced.
-      joint_aperture: m, faces closer than this form a joint (its load fades out as the gap opens
-        from 0 to this); 0: only the penetrating contact's patch, with no fade.
-      joint_patch_points: the most points one pair's joint patch is built from: its active contact
-        points are gathered into this many slots before the O(slots^2) hull (a box pair has up to
-        16; ``contact_slots`` is 81). More set ``Status.JOINT_PATCH_OVERFLOW``, which the driver
-        cures by doubling it.
-      law_slots: the contact law runs over this many slots per pair, into which the pair's active
-        contact points are gathered (in slot order); the shear history is kept per law slot with
-        the point's contact feature (``ContactHistory.contact_feature``) and follows the feature from
-        step to step: a box pair has up to 16 points (of its 81 ``contact_slots``). More set
-        ``Status.CONTACT_POINT_OVERFLOW``, which the driver cures by doubling it. 0, or >=
-        ``contact_slots``: the law runs over every slot (``history_slots``).
+
+    Raises:
+      ValueError: naming ``BlockCapacities.<field>`` when a size is not an integer in range.
+    """
+
+    pairs: int
+    cell_blocks: int = 32
+    joint_patch_points: int = 32
+    law_slots: int = 32
+    crossing_edges: int = 8
+    support_edges: int = 0
+    fcp_crosses: int = 0
+
+    #: the least value of each field
+    _LOWEST = (("pairs", 1), ("cell_blocks", 1), ("joint_patch_points", 3), ("law_slots", 0),
+               ("crossing_edges", 0), ("support_edges", 0), ("fcp_crosses", 0))
+
+    def __post_init__(self):
+        for name, lo in self._LOWEST:
+            object.__setattr__(self, name, _check_int("BlockCapacities", name, getattr(self, name), lo))
+
+    def replace(self, **changes) -> "BlockCapacities":
+        return dataclasses.replace(self, **changes)
+
+
+@dataclasses.dataclass(frozen=True)
+class BlockTuning:
+    """Speed settings of the block contacts (static): they change the time and memory of a step,
+    not its results beyond float rounding (the same contacts, forces and history). Read them on a
+    ``BlockConfig`` under their old names (``pair_segment``, ``skip_separated``); change them with
+    ``BlockConfig.tuned(...)``. The particle side's counterpart is ``rockjax.tuning.Tuning``.
+
+    Attributes:
       pair_segment: the narrow phase (FCP and contact points) runs over the pair buffer in
         segments of this many slots and skips a segment holding no pair to evaluate (the broad
         phase compacts the candidate pairs at the front of the buffer, and with
         ``skip_separated`` the pairs to evaluate are gathered before the separated ones, so a
-        half-empty buffer costs about half). 0, or >= pair_capacity: one pass over every slot.
+        half-empty buffer costs about half). 0, or >= the pair capacity: one pass over every slot.
         16 by default: much faster than 64 on piles where few candidate pairs are evaluated
         (10 rocks or boxes), the same on 100-block piles (RESULTS.md, "pair segments").
       skip_separated: a pair whose stored common plane still separates it by more than the
@@ -144,6 +169,61 @@ class BlockConfig:
         contact points, zero forces, its plane kept. Such pairs are gathered behind the others,
         so segments of them are skipped (a settled rock pile: ~100 of its ~130 candidate pairs).
         False: every candidate pair runs the FCP every step.
+
+    Raises:
+      ValueError: naming ``BlockTuning.<field>`` for a bad value.
+    """
+
+    pair_segment: int = 16
+    skip_separated: bool = True
+
+    def __post_init__(self):
+        object.__setattr__(self, "pair_segment", _check_int("BlockTuning", "pair_segment", self.pair_segment, 0))
+        if not isinstance(self.skip_separated, (bool, np.bool_)):
+            raise ValueError(f"BlockTuning.skip_separated must be True or False (got {self.skip_separated!r})")
+        object.__setattr__(self, "skip_separated", bool(self.skip_separated))
+
+    def replace(self, **changes) -> "BlockTuning":
+        return dataclasses.replace(self, **changes)
+
+
+@dataclasses.dataclass(frozen=True)
+class BlockConfig:
+    """Static description of the blocks (hashable; a static argument of ``jax.jit``).
+
+    The physics and numerics of the contacts are its own fields; the buffer sizes the driver grows
+    are ``capacities`` (:class:`BlockCapacities`) and the speed-only settings ``tuning``
+    (:class:`BlockTuning`). Both are read through properties of their old names
+    (``pair_capacity``, ``grid_cell_capacity``, ``joint_patch_points``, ``law_slots``,
+    ``crossing_edges``, ``support_edges``, ``fcp_crosses``; ``pair_segment``, ``skip_separated``)
+    and changed with :meth:`grown` / :meth:`tuned`.
+
+    Attributes:
+      n_blocks: B.
+      max_vertices, max_faces, max_halfedges, max_edges: padded sizes V, F, E, nE.
+      max_valence: K, the most edges at one vertex (padding of the vertex stars used by FCP).
+      motion: per-block :class:`Motion`.
+      capacities: :class:`BlockCapacities`, the buffers the driver grows on an overflow bit.
+      fcp_iterations: fixed number of Fast Common Plane iterations per pair and step. Not run
+        for blocks with at most 8 edge directions each (boxes, prisms of up to 7 sides:
+        ``fcp.sat_start``) without joint water: their start holds every separating axis, so an
+        overlapping pair's plane is exact from the start.
+      broadphase: :class:`Broadphase`.
+      prescribed_direction: per block unit 3-vector of the piston motion ((0,0,0) if not PRESCRIBED).
+      prescribed_ramp: s, soft start of the piston: the amplitude grows as
+        ``(1 - cos(pi t / ramp)) / 2`` over the first ``ramp`` seconds (0: full amplitude at t = 0).
+      aabb_margin: m, added to every AABB half-size in the broad phase.
+      grid_cell_size: m, uniform-grid cell (GRID; default 1.5 x median block size, seed section 2).
+      large_blocks: blocks bigger than a grid cell (GRID): tested against every block directly.
+      edge_contacts: also use edge-edge crossings as contact points (default True).
+      inside_tolerance: relative (to the block's bounding radius) tolerance of the
+        point-in-block test that decides which vertices / crossings are contact points.
+      penetration_limit: depth / min(bounding radius) above which BLOCK_PENETRATION is set.
+      joint_water: the contact patches carry the hydrostatic pressure of a still water level
+        (``BlockParams.joint_water_level``; module ``joint_water``). Off: nothing is traced.
+      joint_aperture: m, faces closer than this form a joint (its load fades out as the gap opens
+        from 0 to this); 0: only the penetrating contact's patch, with no fade.
+      tuning: :class:`BlockTuning`, the settings that change only speed.
       law: the contact law (``laws.ContactLaw``; default ``laws.PenaltyCoulomb()``): the maths of
         the force at a contact point, a static choice; its constants are ``BlockParams``.
     """
@@ -155,27 +235,20 @@ class BlockConfig:
     max_edges: int
     max_valence: int
     motion: tuple
-    pair_capacity: int
+    capacities: BlockCapacities
     fcp_iterations: int = 2
     broadphase: Broadphase = Broadphase.ALL_PAIRS
     prescribed_direction: tuple = ()
     prescribed_ramp: float = 0.0
     aabb_margin: float = 0.0
     grid_cell_size: float = 1.0
-    grid_cell_capacity: int = 32
     large_blocks: tuple = ()
     edge_contacts: bool = True
     inside_tolerance: float = 1e-4
     penetration_limit: float = 0.1
     joint_water: bool = False
     joint_aperture: float = 0.0
-    joint_patch_points: int = 32
-    pair_segment: int = 16
-    law_slots: int = 32
-    crossing_edges: int = 8
-    support_edges: int = 0
-    fcp_crosses: int = 0
-    skip_separated: bool = True
+    tuning: BlockTuning = BlockTuning()
     law: ContactLaw = PenaltyCoulomb()
 
     def __post_init__(self):
@@ -184,24 +257,77 @@ class BlockConfig:
                              f"got {self.law!r}")
         if len(self.motion) != self.n_blocks:
             raise ValueError(f"BlockConfig.motion has {len(self.motion)} entries, n_blocks={self.n_blocks}")
-        if self.pair_capacity < 1:
-            raise ValueError("BlockConfig.pair_capacity must be >= 1")
-        if self.joint_patch_points < 3:
-            raise ValueError(f"BlockConfig.joint_patch_points must be >= 3 (got {self.joint_patch_points})")
+        if not isinstance(self.capacities, BlockCapacities):
+            raise ValueError(f"BlockConfig.capacities must be a rockjax.blocks.BlockCapacities (got {self.capacities!r})")
+        if not isinstance(self.tuning, BlockTuning):
+            raise ValueError(f"BlockConfig.tuning must be a rockjax.blocks.BlockTuning (got {self.tuning!r})")
         if self.fcp_iterations < 0:
             raise ValueError("BlockConfig.fcp_iterations must be >= 0")
-        if self.law_slots < 0:
-            raise ValueError(f"BlockConfig.law_slots must be >= 0 (got {self.law_slots})")
-        if self.crossing_edges < 0:
-            raise ValueError(f"BlockConfig.crossing_edges must be >= 0 (got {self.crossing_edges})")
-        if self.support_edges < 0:
-            raise ValueError(f"BlockConfig.support_edges must be >= 0 (got {self.support_edges})")
-        if self.fcp_crosses < 0:
-            raise ValueError(f"BlockConfig.fcp_crosses must be >= 0 (got {self.fcp_crosses})")
-        if self.pair_segment < 0:
-            raise ValueError(f"BlockConfig.pair_segment must be >= 0 (got {self.pair_segment})")
         if not (self.prescribed_ramp >= 0.0 and math.isfinite(self.prescribed_ramp)):
             raise ValueError(f"BlockConfig.prescribed_ramp must be a finite time >= 0 s (got {self.prescribed_ramp})")
+
+    def replace(self, **changes) -> "BlockConfig":
+        """This config with some fields changed (``dataclasses.replace``)."""
+        return dataclasses.replace(self, **changes)
+
+    def grown(self, **changes) -> "BlockConfig":
+        """This config with some buffer sizes changed (:class:`BlockCapacities` fields), e.g.
+        ``grown(pairs=64)``. A grown pair buffer or law slot count needs a reshaped state
+        (``driver.resize``: :func:`resize_pairs`, :func:`fit_history`)."""
+        return self.replace(capacities=self.capacities.replace(**changes))
+
+    def tuned(self, **changes) -> "BlockConfig":
+        """This config with some speed settings changed (:class:`BlockTuning` fields), e.g.
+        ``tuned(pair_segment=0)``."""
+        return self.replace(tuning=self.tuning.replace(**changes))
+
+    # -- the buffer sizes and speed settings under their old names (read-only) --
+
+    @property
+    def pair_capacity(self) -> int:
+        """P, the candidate-pair buffer (``capacities.pairs``)."""
+        return self.capacities.pairs
+
+    @property
+    def grid_cell_capacity(self) -> int:
+        """Most blocks per broad-phase grid cell (``capacities.cell_blocks``)."""
+        return self.capacities.cell_blocks
+
+    @property
+    def joint_patch_points(self) -> int:
+        """Slots a joint patch is built from (``capacities.joint_patch_points``)."""
+        return self.capacities.joint_patch_points
+
+    @property
+    def law_slots(self) -> int:
+        """Slots the contact law runs over per pair (``capacities.law_slots``; 0: every slot)."""
+        return self.capacities.law_slots
+
+    @property
+    def crossing_edges(self) -> int:
+        """Edges per block among which crossings are sought (``capacities.crossing_edges``; 0: all)."""
+        return self.capacities.crossing_edges
+
+    @property
+    def support_edges(self) -> int:
+        """Edge directions gathered per support set (``capacities.support_edges``; 0: all)."""
+        return self.capacities.support_edges
+
+    @property
+    def fcp_crosses(self) -> int:
+        """Cross-product slots per FCP round (``capacities.fcp_crosses``; 0: support_edges^2)."""
+        return self.capacities.fcp_crosses
+
+    @property
+    def pair_segment(self) -> int:
+        """Pair slots per narrow-phase segment (``tuning.pair_segment``; 0: one pass)."""
+        return self.tuning.pair_segment
+
+    @property
+    def skip_separated(self) -> bool:
+        """Whether pairs still separated by their stored plane skip the narrow phase
+        (``tuning.skip_separated``)."""
+        return self.tuning.skip_separated
 
     @property
     def dynamic(self) -> tuple:
@@ -718,6 +844,20 @@ def make_blocks(
     V = packed.max_vertices
     stars = [_stars(p, V, K) for p in polys]
 
+    for name, value, lo in (("joint_patch_points", joint_patch_points, 3), ("law_slots", law_slots, 0),
+                            ("crossing_edges", crossing_edges, 0), ("pair_segment", pair_segment, 0)):
+        if int(value) < lo:  # the messages BlockConfig gave when these were its fields
+            raise ValueError(f"BlockConfig.{name} must be >= {lo} (got {int(value)})")
+    capacities = BlockCapacities(
+        pairs=pair_capacity,
+        cell_blocks=int(grid_cell_capacity),
+        joint_patch_points=int(joint_patch_points),
+        law_slots=int(law_slots),
+        crossing_edges=int(crossing_edges),
+        support_edges=int(support_edges),
+        fcp_crosses=int(fcp_crosses),
+    )
+    tuning = BlockTuning(pair_segment=int(pair_segment), skip_separated=bool(skip_separated))
     config = BlockConfig(
         n_blocks=B,
         max_vertices=V,
@@ -726,27 +866,20 @@ def make_blocks(
         max_edges=packed.max_edges,
         max_valence=K,
         motion=motion,
-        pair_capacity=pair_capacity,
+        capacities=capacities,
         fcp_iterations=it,
         broadphase=broadphase,
         prescribed_direction=tuple(tuple(float(c) for c in r) for r in pdir),
         prescribed_ramp=float(ramp),
         aabb_margin=float(margin),
         grid_cell_size=float(cell),
-        grid_cell_capacity=int(grid_cell_capacity),
         large_blocks=large,
         edge_contacts=bool(edge_contacts),
         inside_tolerance=float(inside_tolerance),
         penetration_limit=float(penetration_limit),
         joint_water=bool(joint_water),
         joint_aperture=float(jw_ap),
-        joint_patch_points=int(joint_patch_points),
-        pair_segment=int(pair_segment),
-        law_slots=int(law_slots),
-        crossing_edges=int(crossing_edges),
-        support_edges=int(support_edges),
-        fcp_crosses=int(fcp_crosses),
-        skip_separated=bool(skip_separated),
+        tuning=tuning,
         law=law,
     )
 
@@ -832,7 +965,7 @@ def resize_pairs(config: BlockConfig, state: BlockState, pair_capacity: int):
     pair_capacity = int(pair_capacity)
     if pair_capacity < 1:
         raise ValueError(f"pair_capacity must be >= 1, got {pair_capacity}")
-    config = dataclasses.replace(config, pair_capacity=pair_capacity)
+    config = config.grown(pairs=pair_capacity)
     fresh = _initial_state(config, state.shape, state.x, state.q, state.v, state.omega)
     return config, fresh.replace(x0=state.x0, q0=state.q0)
 
