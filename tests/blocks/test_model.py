@@ -214,3 +214,22 @@ def test_piston_wavemaker_ramp_option():
     assert rj.scenes.piston_wavemaker(dx=0.1).config.blocks.prescribed_ramp == 0.0
     with pytest.raises(ValueError, match="ramp_periods"):
         rj.scenes.piston_wavemaker(dx=0.1, ramp_periods=-1.0)
+
+
+def test_make_blocks_parts_compose_to_make_blocks():
+    """``make_blocks`` is ``block_geometry`` + ``BlockMaterial`` + the contact fields +
+    ``block_capacities`` / ``block_tuning`` + ``block_config``: the parts give the same objects."""
+    polys = [slab(4, 4, 0.5), box(1, 1, 1)]
+    kw = dict(motion=[Motion.FIXED, Motion.DYNAMIC], positions=np.array([[0, 0, -0.25], [0, 0, 0.5]]))
+    cfg, par, _ = make_blocks(polys, friction_angle_deg=25.0, pair_segment=8, **kw)
+    geo = rb.block_geometry(polys, **kw)
+    assert geo.n_blocks == 2 and geo.n_static_pairs == 1
+    par2 = rb.BlockMaterial(friction_angle_deg=25.0).params(geo)
+    for a, b in zip(np.asarray(list(par.__dict__.values()), dtype=object), par2.__dict__.values()):
+        assert np.array_equal(np.asarray(a), np.asarray(b))
+    caps = rb.block_capacities(geo, pair_capacity=None, support_edges=cfg.support_edges)
+    assert caps == cfg.capacities and rb.block_tuning(pair_segment=8) == cfg.tuning
+    with pytest.raises(ValueError, match="friction_angle_deg"):
+        rb.BlockMaterial(friction_angle_deg=90.0)
+    with pytest.raises(ValueError, match="density"):
+        rb.BlockMaterial(density=[1.0, 2.0, 3.0]).params(geo)

@@ -4,7 +4,8 @@
   shape helpers ``box``, ``wedge``, ``prism``, ``slab`` (floor), ``slope`` (inclined plane).
 * ``model``: ``Motion``, ``Broadphase``, ``BlockConfig`` (static; its buffer sizes ``BlockCapacities``
   and speed settings ``BlockTuning``), ``BlockParams``, ``BlockShape``,
-  ``BlockState`` (with its ``ContactHistory``); ``make_blocks`` (host builder), ``stable_dt`` (seed Eq 8),
+  ``BlockState`` (with its ``ContactHistory``); ``make_blocks`` (host builder: ``block_geometry``,
+  ``BlockMaterial``, ``block_capacities``, ``block_tuning``, ``block_config``), ``stable_dt`` (seed Eq 8),
   world geometry, energies.
 * ``broadphase``: AABBs, all-pairs or sorted uniform grid, fixed-capacity pair buffer.
 * ``fcp``: the Fast Common Plane narrow phase (Nezami et al. 2004).
@@ -24,6 +25,8 @@ from .laws import ContactLaw, ContactPoint, LawResult, PenaltyCoulomb
 from .model import (
     BlockCapacities,
     BlockConfig,
+    BlockGeometry,
+    BlockMaterial,
     BlockParams,
     BlockShape,
     BlockState,
@@ -31,7 +34,11 @@ from .model import (
     Broadphase,
     ContactHistory,
     Motion,
+    block_capacities,
+    block_config,
+    block_geometry,
     block_mass,
+    block_tuning,
     energies,
     make_blocks,
     resize_pairs,
@@ -46,6 +53,8 @@ from .rotation import quat_from_axis_angle, quat_matrix
 __all__ = [
     "BlockCapacities",
     "BlockConfig",
+    "BlockGeometry",
+    "BlockMaterial",
     "BlockParams",
     "BlockShape",
     "BlockState",
@@ -60,7 +69,11 @@ __all__ = [
     "PackedBlocks",
     "PenaltyCoulomb",
     "advance_blocks",
+    "block_capacities",
+    "block_config",
+    "block_geometry",
     "block_mass",
+    "block_tuning",
     "box",
     "contact_forces",
     "energies",

@@ -1,9 +1,12 @@
 """The block model: static ``BlockConfig``, calibratable ``BlockParams``, ``BlockShape`` / ``BlockState``.
 
 This module owns the data layout of the explicit 3D-DDA rock blocks (the contact history a
-state carries from step to step included, :class:`ContactHistory`) and the host-side scene
-builder :func:`make_blocks` (validation of every input, defaults, the stable time step of seed
-Eq 8), plus small pure helpers on the state (world vertices and planes, mass, inertia,
+state carries from step to step included, :class:`ContactHistory`; the config's buffer sizes
+:class:`BlockCapacities` and speed settings :class:`BlockTuning`) and the host-side scene builder
+:func:`make_blocks` (validation of every input, defaults), split by concern into
+:func:`block_geometry` (shapes, poses, motions), :class:`BlockMaterial` (-> ``BlockParams``),
+:func:`block_capacities`, :func:`block_tuning` and :func:`block_config`; the stable time step of
+seed Eq 8, plus small pure helpers on the state (world vertices and planes, mass, inertia,
 energies).  Contacts live in ``fcp`` / ``contact`` / ``broadphase``, the contact law in ``laws``;
 the time step in ``integrate``.
 
@@ -38,6 +41,12 @@ __all__ = [
     "BlockState",
     "ContactHistory",
     "make_blocks",
+    "BlockMaterial",
+    "BlockGeometry",
+    "block_geometry",
+    "block_capacities",
+    "block_tuning",
+    "block_config",
     "stable_dt",
     "stable_dt_jax",
     "world_vertices",
@@ -642,8 +651,342 @@ def _stars(poly: ConvexPolyhedron, V: int, K: int):
     return sf, sv, sm
 
 
-#: ``make_blocks``' default ``BlockConfig.fcp_crosses`` (where support_edges^2 is more)
+#: ``make_blocks``' default ``BlockCapacities.fcp_crosses`` (where support_edges^2 is more)
 FCP_CROSSES = 128
+
+
+@dataclasses.dataclass(frozen=True)
+class BlockMaterial:
+    """The rock's and its joints' constants as ``make_blocks`` takes them (host, SI units but
+    degrees); :meth:`params` turns them into the calibratable :class:`BlockParams`.
+
+    Attributes:
+      density: kg/m^3, a number or one per block ([B]; its length is checked by :meth:`params`).
+      friction_angle_deg: Coulomb friction angle (degrees), in [0, 90).
+      cohesion: N per contact point (>= 0).
+      tensile_strength: must be 0 (bonded joints are not implemented).
+      normal_stiffness: N/m per contact point; None: ``penalty_modulus x L`` with L the median
+        block size (2 x bounding radius) of the DYNAMIC blocks -- the DDA practice of a penalty
+        ~ E x length.
+      shear_stiffness: N/m; None: 0.4 x normal_stiffness.
+      penalty_modulus: Pa (> 0), the numerical modulus behind the default normal stiffness: the
+        penetration under a column of rock of height H is about ``rho g H / E``.
+      damping_ratio: closing-only ratio of critical damping per contact point (>= 0).
+      joint_water_level: m, height (along -gravity) of the still water whose pressure the joints
+        carry (used with ``BlockConfig.joint_water``).
+      joint_water_density: kg/m^3 (> 0) of that water.
+
+    Raises:
+      ValueError: naming the field (the messages ``make_blocks`` gives), when built.
+    """
+
+    density: object = 2650.0
+    friction_angle_deg: float = 30.0
+    cohesion: float = 0.0
+    tensile_strength: float = 0.0
+    normal_stiffness: Optional[float] = None
+    shear_stiffness: Optional[float] = None
+    penalty_modulus: float = 1e9
+    damping_ratio: float = 0.2
+    joint_water_level: float = 0.0
+    joint_water_density: float = 1000.0
+
+    def __post_init__(self):
+        self.constants(None)  # validates every field but the density's length
+
+    def constants(self, geometry: Optional["BlockGeometry"]) -> dict:
+        """The :class:`BlockParams` fields this material sets, as host numbers: ``density`` [B]
+        kg/m^3, ``friction_angle`` rad, ``cohesion``, ``tensile_strength`` N, ``normal_stiffness``,
+        ``shear_stiffness`` N/m, ``damping_ratio``, ``joint_water_level`` m,
+        ``joint_water_density`` kg/m^3. ``geometry`` (:class:`BlockGeometry`) gives B and the
+        block size L of the default stiffness (None: only validate, L = 1 m)."""
+        out = {}
+        if geometry is not None:
+            B = geometry.n_blocks
+            dens = np.asarray(self.density, dtype=np.float64)
+            if dens.ndim == 0:
+                dens = np.full(B, float(dens))
+            if dens.shape != (B,) or not np.all(np.isfinite(dens)) or np.any(dens <= 0):
+                raise ValueError(f"density must be a positive finite number or [B={B}] array (kg/m^3), "
+                                 f"got {self.density}")
+            out["density"] = dens
+        phi = _scalar("friction_angle_deg", self.friction_angle_deg, lo=0.0, hi=90.0, hi_open=True, unit="degrees")
+        out["friction_angle"] = math.radians(phi)
+        out["cohesion"] = _scalar("cohesion", self.cohesion, lo=0.0, unit="N per contact point")
+        ten = _scalar("tensile_strength", self.tensile_strength, lo=0.0, unit="N")
+        if ten != 0.0:
+            raise ValueError("tensile_strength: bonded (tensile) joints are not implemented; set 0")
+        out["tensile_strength"] = ten
+        L = 1.0 if geometry is None else geometry.size
+        E = _scalar("penalty_modulus", self.penalty_modulus, lo=0.0, lo_open=True, unit="Pa")
+        kn = E * L if self.normal_stiffness is None else _scalar("normal_stiffness", self.normal_stiffness, lo=0.0,
+                                                                 lo_open=True, unit="N/m")
+        ks = 0.4 * kn if self.shear_stiffness is None else _scalar("shear_stiffness", self.shear_stiffness, lo=0.0,
+                                                                   unit="N/m")
+        out.update(normal_stiffness=kn, shear_stiffness=ks)
+        out["damping_ratio"] = _scalar("damping_ratio", self.damping_ratio, lo=0.0, unit="(ratio of critical)")
+        out["joint_water_level"] = _scalar("joint_water_level", self.joint_water_level, unit="m")
+        out["joint_water_density"] = _scalar("joint_water_density", self.joint_water_density, lo=0.0, lo_open=True,
+                                             unit="kg/m^3")
+        return out
+
+    def params(self, geometry: "BlockGeometry") -> BlockParams:
+        """The :class:`BlockParams` of these blocks (the piston's stroke and period come from
+        ``geometry``), in ``float_dtype()``."""
+        f = float_dtype()
+        values = {**self.constants(geometry), "stroke": geometry.stroke, "period": geometry.period}
+        return BlockParams(**{k: jnp.asarray(values[k], f) for k in (fl.name for fl in dataclasses.fields(BlockParams))})
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class BlockGeometry:
+    """The blocks' shapes, initial poses and motions, validated (host; ``block_geometry`` builds
+    it). The piston's stroke and period travel here (they are :class:`BlockParams`, but describe
+    the motion).
+
+    Attributes:
+      polyhedra: the B :class:`ConvexPolyhedron` (body frame at the centroid).
+      packed: ``geometry.PackedBlocks``, the padded tables of all of them.
+      motion: B :class:`Motion`.
+      positions: [B,3] m centroids.  orientations: [B,4] unit quaternions (w,x,y,z), body -> world.
+      velocities: [B,3] m/s.  omegas: [B,3] rad/s (world); 0 for blocks that are not DYNAMIC.
+      stroke: m, piston stroke S.  period: s, piston period T.
+      prescribed_direction: [B,3] unit piston directions (0 for blocks that are not PRESCRIBED).
+      prescribed_ramp: s, soft start of the piston.
+    """
+
+    polyhedra: tuple
+    packed: object
+    motion: tuple
+    positions: np.ndarray
+    orientations: np.ndarray
+    velocities: np.ndarray
+    omegas: np.ndarray
+    stroke: float
+    period: float
+    prescribed_direction: np.ndarray
+    prescribed_ramp: float
+
+    @property
+    def n_blocks(self) -> int:
+        return len(self.polyhedra)
+
+    @property
+    def dynamic_mask(self) -> list:
+        """[B] bool, which blocks are DYNAMIC."""
+        return [m == Motion.DYNAMIC for m in self.motion]
+
+    @property
+    def radius(self) -> np.ndarray:
+        """[B] m, bounding radii about the centroids."""
+        return np.asarray(self.packed.bounding_radius)
+
+    @property
+    def size(self) -> float:
+        """L, m: the median size (2 x bounding radius) of the DYNAMIC blocks (of all, if none is)."""
+        dyn, radius = self.dynamic_mask, self.radius
+        sizes = 2 * radius[np.asarray(dyn)] if any(dyn) else 2 * radius
+        return float(np.median(sizes))
+
+    @property
+    def n_static_pairs(self) -> int:
+        """Pairs (i < j) with at least one DYNAMIC block (``BlockConfig.static_pairs``)."""
+        dyn, B = self.dynamic_mask, self.n_blocks
+        return sum(1 for i in range(B) for j in range(i + 1, B) if dyn[i] or dyn[j])
+
+
+def block_geometry(polyhedra: Sequence[ConvexPolyhedron], *, positions=None, motion=None, orientations=None,
+                   velocities=None, omegas=None, stroke: float = 0.0, period: float = 1.0,
+                   prescribed_direction=None, prescribed_ramp: float = 0.0) -> BlockGeometry:
+    """Validate the blocks' shapes, poses and motions (``make_blocks``' arguments of those names,
+    same defaults and messages) into a :class:`BlockGeometry`."""
+    polys = list(polyhedra)
+    if not polys:
+        raise ValueError("polyhedra: need at least one block")
+    for i, p in enumerate(polys):
+        if not isinstance(p, ConvexPolyhedron):
+            raise ValueError(f"polyhedra[{i}] is {type(p).__name__}; build blocks with rockjax.blocks.box/"
+                             "wedge/slab/ConvexPolyhedron.from_vertices")
+    B = len(polys)
+    if motion is None:
+        motion = (Motion.DYNAMIC,) * B
+    motion = tuple(motion)
+    if len(motion) != B or not all(isinstance(m, Motion) for m in motion):
+        raise ValueError(f"motion must be {B} rockjax.blocks.Motion values (one per block), got {motion}")
+    dyn = [m == Motion.DYNAMIC for m in motion]
+
+    packed = pack(polys)
+    pos = _per_block("positions", positions, B, 3, default=np.asarray(packed.centroid_world))
+    ori = _per_block("orientations", orientations, B, 4, default=np.tile([1.0, 0, 0, 0], (B, 1)))
+    nq = np.linalg.norm(ori, axis=1)
+    if np.any(nq < 1e-6):
+        raise ValueError("orientations: every quaternion (w, x, y, z) must be non-zero")
+    ori = ori / nq[:, None]
+    vel = _per_block("velocities", velocities, B, 3, default=np.zeros((B, 3)))
+    om = _per_block("omegas", omegas, B, 3, default=np.zeros((B, 3)))
+    for name, arr in (("velocities", vel), ("omegas", om)):
+        bad = [i for i in range(B) if not dyn[i] and np.any(arr[i] != 0)]
+        if bad:
+            raise ValueError(f"{name}: blocks {bad} are not DYNAMIC; their velocity comes from their motion, set 0")
+
+    S = _scalar("stroke", stroke, lo=0.0, unit="m")
+    T = _scalar("period", period, lo=0.0, lo_open=True, unit="s")
+    ramp = _scalar("prescribed_ramp", prescribed_ramp, lo=0.0, unit="s")
+    pdir = np.zeros((B, 3))
+    if any(m == Motion.PRESCRIBED for m in motion):
+        if prescribed_direction is None:
+            raise ValueError("prescribed_direction: [B,3] piston directions are needed for PRESCRIBED blocks")
+        pd = _per_block("prescribed_direction", prescribed_direction, B, 3)
+        for i, m in enumerate(motion):
+            if m == Motion.PRESCRIBED:
+                n = np.linalg.norm(pd[i])
+                if n == 0:
+                    raise ValueError(f"prescribed_direction[{i}] is zero for a PRESCRIBED block")
+                pdir[i] = pd[i] / n
+    return BlockGeometry(polyhedra=tuple(polys), packed=packed, motion=motion, positions=pos, orientations=ori,
+                         velocities=vel, omegas=om, stroke=S, period=T, prescribed_direction=pdir,
+                         prescribed_ramp=ramp)
+
+
+def _contact_fields(geometry: BlockGeometry, *, fcp_iterations, broadphase, aabb_margin, grid_cell_size,
+                    edge_contacts, inside_tolerance, penetration_limit, joint_water, joint_aperture, law) -> dict:
+    """The ``BlockConfig`` fields of the contact search and law (``make_blocks``' arguments of
+    those names, validated, defaults resolved from the blocks' sizes; ``large_blocks`` follows
+    from the grid cell)."""
+    B, radius = geometry.n_blocks, geometry.radius
+    if broadphase is None:
+        broadphase = Broadphase.ALL_PAIRS if B <= 32 else Broadphase.GRID
+    if not isinstance(broadphase, Broadphase):
+        raise ValueError(f"broadphase must be a rockjax.blocks.Broadphase, got {broadphase!r}")
+    it = int(fcp_iterations)
+    if it < 0 or it != fcp_iterations:
+        raise ValueError(f"fcp_iterations must be a non-negative integer, got {fcp_iterations}")
+    margin = 0.05 * float(radius.min()) if aabb_margin is None else _scalar("aabb_margin", aabb_margin, lo=0.0,
+                                                                             unit="m")
+    jw_ap = _scalar("joint_aperture", joint_aperture, lo=0.0, unit="m")
+    if joint_water:
+        margin = max(margin, jw_ap)  # pairs within the aperture must be candidates
+    cell = 1.5 * float(np.median(2 * radius)) if grid_cell_size is None else _scalar(
+        "grid_cell_size", grid_cell_size, lo=0.0, lo_open=True, unit="m")
+    # a block whose AABB (<= 2 r + 2 margin per axis) can exceed one cell is "large"
+    large = tuple(int(i) for i in np.nonzero(2 * radius + 2 * margin > cell)[0]) if broadphase == Broadphase.GRID else ()
+    _scalar("inside_tolerance", inside_tolerance, lo=0.0, unit="(relative)")
+    _scalar("penetration_limit", penetration_limit, lo=0.0, lo_open=True, unit="(relative)")
+    if law is None:
+        law = PenaltyCoulomb()
+    if not isinstance(law, ContactLaw):
+        raise ValueError(f"law must be a rockjax.blocks.laws.ContactLaw (e.g. PenaltyCoulomb()), got {law!r}")
+    return dict(fcp_iterations=it, broadphase=broadphase, aabb_margin=float(margin), grid_cell_size=float(cell),
+                large_blocks=large, edge_contacts=bool(edge_contacts), inside_tolerance=float(inside_tolerance),
+                penetration_limit=float(penetration_limit), joint_water=bool(joint_water),
+                joint_aperture=float(jw_ap), law=law)
+
+
+def block_capacities(geometry: BlockGeometry, *, broadphase: Broadphase = Broadphase.ALL_PAIRS,
+                     large_blocks: tuple = (), pair_capacity: Optional[int] = None, grid_cell_capacity: int = 32,
+                     joint_patch_points: int = 32, law_slots: int = 32, crossing_edges: int = 8,
+                     support_edges: Optional[int] = None, fcp_crosses: Optional[int] = None) -> BlockCapacities:
+    """The :class:`BlockCapacities` of these blocks: ``make_blocks``' arguments of those names
+    (same messages), with the defaults sized from the blocks: ``pair_capacity`` every candidate
+    pair (ALL_PAIRS) or ``8 x n_dynamic + (#large blocks x B)`` (GRID, at most every pair);
+    ``support_edges`` the most edge directions touching one face of any block; ``fcp_crosses``
+    ``FCP_CROSSES`` (128) where ``support_edges^2`` is more, else 0 (every slot)."""
+    B, n_static = geometry.n_blocks, geometry.n_static_pairs
+    if pair_capacity is None:
+        if broadphase == Broadphase.ALL_PAIRS:
+            pair_capacity = max(1, n_static)
+        else:
+            pair_capacity = max(1, min(n_static, 8 * sum(geometry.dynamic_mask) + len(large_blocks) * B))
+    pair_capacity = int(pair_capacity)
+    if pair_capacity < 1:
+        raise ValueError(f"pair_capacity must be >= 1, got {pair_capacity}")
+    if int(grid_cell_capacity) < 1:
+        raise ValueError("grid_cell_capacity must be >= 1")
+    if support_edges is None:
+        support_edges = max(p.support_directions() for p in geometry.polyhedra)
+    if int(support_edges) != support_edges or support_edges < 0:
+        raise ValueError(f"support_edges must be a non-negative integer (0: every edge direction), got {support_edges}")
+    if fcp_crosses is None:
+        fcp_crosses = FCP_CROSSES if 0 < int(support_edges) and FCP_CROSSES < int(support_edges) ** 2 else 0
+    if int(fcp_crosses) != fcp_crosses or fcp_crosses < 0:
+        raise ValueError(f"fcp_crosses must be a non-negative integer (0: support_edges^2 slots), got {fcp_crosses}")
+    for name, value, lo in (("joint_patch_points", joint_patch_points, 3), ("law_slots", law_slots, 0),
+                            ("crossing_edges", crossing_edges, 0)):
+        if int(value) < lo:  # the messages BlockConfig gave when these were its fields
+            raise ValueError(f"BlockConfig.{name} must be >= {lo} (got {int(value)})")
+    return BlockCapacities(pairs=pair_capacity, cell_blocks=int(grid_cell_capacity),
+                           joint_patch_points=int(joint_patch_points), law_slots=int(law_slots),
+                           crossing_edges=int(crossing_edges), support_edges=int(support_edges),
+                           fcp_crosses=int(fcp_crosses))
+
+
+def block_tuning(*, pair_segment: int = 16, skip_separated: bool = True) -> BlockTuning:
+    """The :class:`BlockTuning` from ``make_blocks``' arguments of those names (same messages)."""
+    if int(pair_segment) < 0:  # the message BlockConfig gave when this was its field
+        raise ValueError(f"BlockConfig.pair_segment must be >= 0 (got {int(pair_segment)})")
+    return BlockTuning(pair_segment=int(pair_segment), skip_separated=bool(skip_separated))
+
+
+def _block_shape(geometry: BlockGeometry) -> BlockShape:
+    """The padded body-frame tables of the blocks (``BlockShape``) in ``float_dtype()``."""
+    packed, polys = geometry.packed, geometry.polyhedra
+    K = _max_valence(polys)
+    stars = [_stars(p, packed.max_vertices, K) for p in polys]
+    f = float_dtype()
+    i32 = jnp.int32
+
+    def idx(a):
+        return jnp.asarray(np.where(np.asarray(a) < 0, 0, a), i32)
+
+    return BlockShape(
+        vertices=jnp.asarray(packed.vertices, f),
+        vertex_mask=jnp.asarray(packed.vertex_mask),
+        face_normal=jnp.asarray(packed.face_normal, f),
+        face_offset=jnp.asarray(packed.face_offset, f),
+        face_mask=jnp.asarray(packed.face_mask),
+        edges=idx(packed.edges),
+        edge_mask=jnp.asarray(packed.edge_mask),
+        edge_direction=idx(packed.edge_direction),
+        direction_edge=idx(packed.direction_edge),
+        direction_mask=jnp.asarray(packed.direction_mask),
+        he_vert=idx(packed.he_vert),
+        he_next=idx(packed.he_next),
+        he_pair=idx(packed.he_pair),
+        he_face=idx(packed.he_face),
+        halfedge_mask=jnp.asarray(packed.halfedge_mask),
+        star_face=jnp.asarray(np.stack([s[0] for s in stars]), i32),
+        star_vertex=jnp.asarray(np.stack([s[1] for s in stars]), i32),
+        star_mask=jnp.asarray(np.stack([s[2] for s in stars])),
+        volume=jnp.asarray(packed.volume, f),
+        inertia_unit=jnp.asarray(packed.inertia_unit_density, f),
+        radius=jnp.asarray(packed.bounding_radius, f),
+    )
+
+
+def _max_valence(polyhedra) -> int:
+    """K, the most edges at one vertex of any of ``polyhedra`` (``BlockConfig.max_valence``)."""
+    return max(max(len(p.halfedges_around_vertex(v)) for v in range(p.n_vertices)) for p in polyhedra)
+
+
+def block_config(geometry: BlockGeometry, contact: dict, capacities: BlockCapacities,
+                 tuning: BlockTuning) -> BlockConfig:
+    """The :class:`BlockConfig` of ``geometry``'s blocks with the contact fields ``contact``
+    (``_contact_fields``), ``capacities`` and ``tuning``."""
+    packed = geometry.packed
+    return BlockConfig(
+        n_blocks=geometry.n_blocks,
+        max_vertices=packed.max_vertices,
+        max_faces=packed.max_faces,
+        max_halfedges=packed.max_halfedges,
+        max_edges=packed.max_edges,
+        max_valence=_max_valence(geometry.polyhedra),
+        motion=geometry.motion,
+        capacities=capacities,
+        prescribed_direction=tuple(tuple(float(c) for c in r) for r in geometry.prescribed_direction),
+        prescribed_ramp=float(geometry.prescribed_ramp),
+        tuning=tuning,
+        **contact,
+    )
 
 
 def make_blocks(
@@ -690,6 +1033,15 @@ def make_blocks(
 ):
     """Build ``(BlockConfig, BlockParams, BlockState)`` from convex polyhedra, validating every input.
 
+    Its arguments fall into four groups, each validated by one function: the shapes, poses and
+    motions (with the piston's stroke and period) by :func:`block_geometry`; the rock and joint
+    constants (density, friction, cohesion, stiffnesses, damping, joint water level and density)
+    by :class:`BlockMaterial`, whose :meth:`BlockMaterial.params` makes the ``BlockParams``; the
+    contact search and law (FCP iterations, broad phase, margins, tolerances, joint water, law) by
+    ``_contact_fields``; the buffer sizes by :func:`block_capacities` (:class:`BlockCapacities`)
+    and the speed settings by :func:`block_tuning` (:class:`BlockTuning`). :func:`block_config`
+    assembles the ``BlockConfig``.
+
     Args:
       polyhedra: B :class:`ConvexPolyhedron` (body frame at the centroid).
       positions: [B,3] m centroids; default each block's ``centroid_world`` (where it was built).
@@ -732,200 +1084,27 @@ def make_blocks(
     Raises:
       ValueError: naming the field and what to change.
     """
-    polys = list(polyhedra)
-    if not polys:
-        raise ValueError("polyhedra: need at least one block")
-    for i, p in enumerate(polys):
-        if not isinstance(p, ConvexPolyhedron):
-            raise ValueError(f"polyhedra[{i}] is {type(p).__name__}; build blocks with rockjax.blocks.box/"
-                             "wedge/slab/ConvexPolyhedron.from_vertices")
-    B = len(polys)
-    if motion is None:
-        motion = (Motion.DYNAMIC,) * B
-    motion = tuple(motion)
-    if len(motion) != B or not all(isinstance(m, Motion) for m in motion):
-        raise ValueError(f"motion must be {B} rockjax.blocks.Motion values (one per block), got {motion}")
-    dyn = [m == Motion.DYNAMIC for m in motion]
-
-    packed = pack(polys)
-    pos = _per_block("positions", positions, B, 3, default=np.asarray(packed.centroid_world))
-    ori = _per_block("orientations", orientations, B, 4, default=np.tile([1.0, 0, 0, 0], (B, 1)))
-    nq = np.linalg.norm(ori, axis=1)
-    if np.any(nq < 1e-6):
-        raise ValueError("orientations: every quaternion (w, x, y, z) must be non-zero")
-    ori = ori / nq[:, None]
-    vel = _per_block("velocities", velocities, B, 3, default=np.zeros((B, 3)))
-    om = _per_block("omegas", omegas, B, 3, default=np.zeros((B, 3)))
-    for name, arr in (("velocities", vel), ("omegas", om)):
-        bad = [i for i in range(B) if not dyn[i] and np.any(arr[i] != 0)]
-        if bad:
-            raise ValueError(f"{name}: blocks {bad} are not DYNAMIC; their velocity comes from their motion, set 0")
-
-    dens = np.asarray(density, dtype=np.float64)
-    if dens.ndim == 0:
-        dens = np.full(B, float(dens))
-    if dens.shape != (B,) or not np.all(np.isfinite(dens)) or np.any(dens <= 0):
-        raise ValueError(f"density must be a positive finite number or [B={B}] array (kg/m^3), got {density}")
-    phi = _scalar("friction_angle_deg", friction_angle_deg, lo=0.0, hi=90.0, hi_open=True, unit="degrees")
-    coh = _scalar("cohesion", cohesion, lo=0.0, unit="N per contact point")
-    ten = _scalar("tensile_strength", tensile_strength, lo=0.0, unit="N")
-    if ten != 0.0:
-        raise ValueError("tensile_strength: bonded (tensile) joints are not implemented; set 0")
-    radius = np.asarray(packed.bounding_radius)
-    sizes = 2 * radius[np.asarray(dyn)] if any(dyn) else 2 * radius
-    L = float(np.median(sizes))
-    E = _scalar("penalty_modulus", penalty_modulus, lo=0.0, lo_open=True, unit="Pa")
-    kn = E * L if normal_stiffness is None else _scalar("normal_stiffness", normal_stiffness, lo=0.0,
-                                                          lo_open=True, unit="N/m")
-    ks = 0.4 * kn if shear_stiffness is None else _scalar("shear_stiffness", shear_stiffness, lo=0.0,
-                                                           unit="N/m")
-    zeta = _scalar("damping_ratio", damping_ratio, lo=0.0, unit="(ratio of critical)")
-    S = _scalar("stroke", stroke, lo=0.0, unit="m")
-    T = _scalar("period", period, lo=0.0, lo_open=True, unit="s")
-    ramp = _scalar("prescribed_ramp", prescribed_ramp, lo=0.0, unit="s")
-
-    pdir = np.zeros((B, 3))
-    if any(m == Motion.PRESCRIBED for m in motion):
-        if prescribed_direction is None:
-            raise ValueError("prescribed_direction: [B,3] piston directions are needed for PRESCRIBED blocks")
-        pd = _per_block("prescribed_direction", prescribed_direction, B, 3)
-        for i, m in enumerate(motion):
-            if m == Motion.PRESCRIBED:
-                n = np.linalg.norm(pd[i])
-                if n == 0:
-                    raise ValueError(f"prescribed_direction[{i}] is zero for a PRESCRIBED block")
-                pdir[i] = pd[i] / n
-
-    if broadphase is None:
-        broadphase = Broadphase.ALL_PAIRS if B <= 32 else Broadphase.GRID
-    if not isinstance(broadphase, Broadphase):
-        raise ValueError(f"broadphase must be a rockjax.blocks.Broadphase, got {broadphase!r}")
-    it = int(fcp_iterations)
-    if it < 0 or it != fcp_iterations:
-        raise ValueError(f"fcp_iterations must be a non-negative integer, got {fcp_iterations}")
-    margin = 0.05 * float(radius.min()) if aabb_margin is None else _scalar("aabb_margin", aabb_margin, lo=0.0,
-                                                                             unit="m")
-    jw_ap = _scalar("joint_aperture", joint_aperture, lo=0.0, unit="m")
-    if joint_water:
-        margin = max(margin, jw_ap)  # pairs within the aperture must be candidates
-    cell = 1.5 * float(np.median(2 * radius)) if grid_cell_size is None else _scalar(
-        "grid_cell_size", grid_cell_size, lo=0.0, lo_open=True, unit="m")
-    # a block whose AABB (<= 2 r + 2 margin per axis) can exceed one cell is "large"
-    large = tuple(int(i) for i in np.nonzero(2 * radius + 2 * margin > cell)[0]) if broadphase == Broadphase.GRID else ()
-    n_static = sum(1 for i in range(B) for j in range(i + 1, B) if dyn[i] or dyn[j])
-    if pair_capacity is None:
-        if broadphase == Broadphase.ALL_PAIRS:
-            pair_capacity = max(1, n_static)
-        else:
-            pair_capacity = max(1, min(n_static, 8 * sum(dyn) + len(large) * B))
-    pair_capacity = int(pair_capacity)
-    if pair_capacity < 1:
-        raise ValueError(f"pair_capacity must be >= 1, got {pair_capacity}")
-    _scalar("inside_tolerance", inside_tolerance, lo=0.0, unit="(relative)")
-    _scalar("penetration_limit", penetration_limit, lo=0.0, lo_open=True, unit="(relative)")
-    jw_level = _scalar("joint_water_level", joint_water_level, unit="m")
-    jw_rho = _scalar("joint_water_density", joint_water_density, lo=0.0, lo_open=True, unit="kg/m^3")
-    if int(grid_cell_capacity) < 1:
-        raise ValueError("grid_cell_capacity must be >= 1")
-    if law is None:
-        law = PenaltyCoulomb()
-    if not isinstance(law, ContactLaw):
-        raise ValueError(f"law must be a rockjax.blocks.laws.ContactLaw (e.g. PenaltyCoulomb()), got {law!r}")
-
-    if support_edges is None:
-        support_edges = max(p.support_directions() for p in polys)
-    if int(support_edges) != support_edges or support_edges < 0:
-        raise ValueError(f"support_edges must be a non-negative integer (0: every edge direction), got {support_edges}")
-    if fcp_crosses is None:
-        fcp_crosses = FCP_CROSSES if 0 < int(support_edges) and FCP_CROSSES < int(support_edges) ** 2 else 0
-    if int(fcp_crosses) != fcp_crosses or fcp_crosses < 0:
-        raise ValueError(f"fcp_crosses must be a non-negative integer (0: support_edges^2 slots), got {fcp_crosses}")
-    K = max(max(len(p.halfedges_around_vertex(v)) for v in range(p.n_vertices)) for p in polys)
-    V = packed.max_vertices
-    stars = [_stars(p, V, K) for p in polys]
-
-    for name, value, lo in (("joint_patch_points", joint_patch_points, 3), ("law_slots", law_slots, 0),
-                            ("crossing_edges", crossing_edges, 0), ("pair_segment", pair_segment, 0)):
-        if int(value) < lo:  # the messages BlockConfig gave when these were its fields
-            raise ValueError(f"BlockConfig.{name} must be >= {lo} (got {int(value)})")
-    capacities = BlockCapacities(
-        pairs=pair_capacity,
-        cell_blocks=int(grid_cell_capacity),
-        joint_patch_points=int(joint_patch_points),
-        law_slots=int(law_slots),
-        crossing_edges=int(crossing_edges),
-        support_edges=int(support_edges),
-        fcp_crosses=int(fcp_crosses),
-    )
-    tuning = BlockTuning(pair_segment=int(pair_segment), skip_separated=bool(skip_separated))
-    config = BlockConfig(
-        n_blocks=B,
-        max_vertices=V,
-        max_faces=packed.max_faces,
-        max_halfedges=packed.max_halfedges,
-        max_edges=packed.max_edges,
-        max_valence=K,
-        motion=motion,
-        capacities=capacities,
-        fcp_iterations=it,
-        broadphase=broadphase,
-        prescribed_direction=tuple(tuple(float(c) for c in r) for r in pdir),
-        prescribed_ramp=float(ramp),
-        aabb_margin=float(margin),
-        grid_cell_size=float(cell),
-        large_blocks=large,
-        edge_contacts=bool(edge_contacts),
-        inside_tolerance=float(inside_tolerance),
-        penetration_limit=float(penetration_limit),
-        joint_water=bool(joint_water),
-        joint_aperture=float(jw_ap),
-        tuning=tuning,
-        law=law,
-    )
-
-    f = float_dtype()
-    i32 = jnp.int32
-
-    def idx(a):
-        return jnp.asarray(np.where(np.asarray(a) < 0, 0, a), i32)
-
-    shape = BlockShape(
-        vertices=jnp.asarray(packed.vertices, f),
-        vertex_mask=jnp.asarray(packed.vertex_mask),
-        face_normal=jnp.asarray(packed.face_normal, f),
-        face_offset=jnp.asarray(packed.face_offset, f),
-        face_mask=jnp.asarray(packed.face_mask),
-        edges=idx(packed.edges),
-        edge_mask=jnp.asarray(packed.edge_mask),
-        edge_direction=idx(packed.edge_direction),
-        direction_edge=idx(packed.direction_edge),
-        direction_mask=jnp.asarray(packed.direction_mask),
-        he_vert=idx(packed.he_vert),
-        he_next=idx(packed.he_next),
-        he_pair=idx(packed.he_pair),
-        he_face=idx(packed.he_face),
-        halfedge_mask=jnp.asarray(packed.halfedge_mask),
-        star_face=jnp.asarray(np.stack([s[0] for s in stars]), i32),
-        star_vertex=jnp.asarray(np.stack([s[1] for s in stars]), i32),
-        star_mask=jnp.asarray(np.stack([s[2] for s in stars])),
-        volume=jnp.asarray(packed.volume, f),
-        inertia_unit=jnp.asarray(packed.inertia_unit_density, f),
-        radius=jnp.asarray(packed.bounding_radius, f),
-    )
-    params = BlockParams(
-        density=jnp.asarray(dens, f),
-        friction_angle=jnp.asarray(math.radians(phi), f),
-        cohesion=jnp.asarray(coh, f),
-        tensile_strength=jnp.asarray(ten, f),
-        normal_stiffness=jnp.asarray(kn, f),
-        shear_stiffness=jnp.asarray(ks, f),
-        damping_ratio=jnp.asarray(zeta, f),
-        stroke=jnp.asarray(S, f),
-        period=jnp.asarray(T, f),
-        joint_water_level=jnp.asarray(jw_level, f),
-        joint_water_density=jnp.asarray(jw_rho, f),
-    )
-    state = _initial_state(config, shape, pos, ori, vel, om)
+    geometry = block_geometry(polyhedra, positions=positions, motion=motion, orientations=orientations,
+                              velocities=velocities, omegas=omegas, stroke=stroke, period=period,
+                              prescribed_direction=prescribed_direction, prescribed_ramp=prescribed_ramp)
+    material = BlockMaterial(density=density, friction_angle_deg=friction_angle_deg, cohesion=cohesion,
+                             tensile_strength=tensile_strength, normal_stiffness=normal_stiffness,
+                             shear_stiffness=shear_stiffness, penalty_modulus=penalty_modulus,
+                             damping_ratio=damping_ratio, joint_water_level=joint_water_level,
+                             joint_water_density=joint_water_density)
+    params = material.params(geometry)
+    contact = _contact_fields(geometry, fcp_iterations=fcp_iterations, broadphase=broadphase, aabb_margin=aabb_margin,
+                              grid_cell_size=grid_cell_size, edge_contacts=edge_contacts,
+                              inside_tolerance=inside_tolerance, penetration_limit=penetration_limit,
+                              joint_water=joint_water, joint_aperture=joint_aperture, law=law)
+    capacities = block_capacities(geometry, broadphase=contact["broadphase"], large_blocks=contact["large_blocks"],
+                                  pair_capacity=pair_capacity, grid_cell_capacity=grid_cell_capacity,
+                                  joint_patch_points=joint_patch_points, law_slots=law_slots,
+                                  crossing_edges=crossing_edges, support_edges=support_edges, fcp_crosses=fcp_crosses)
+    tuning = block_tuning(pair_segment=pair_segment, skip_separated=skip_separated)
+    config = block_config(geometry, contact, capacities, tuning)
+    state = _initial_state(config, _block_shape(geometry), geometry.positions, geometry.orientations,
+                           geometry.velocities, geometry.omegas)
     return config, params, state
 
 
