@@ -17,6 +17,7 @@ JSON lines out; compare the shares within one run (the machine is shared and noi
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import time
@@ -62,7 +63,10 @@ def bench(dx: float, coupling: str, reps: int) -> dict:
     s_blocks = State(step=state.step, particles=None, nbrs=None, status=state.status, blocks=state.blocks)
     # the blocks alone once more with the joint patch built from all contact slots (no gathering
     # of the active points into ``joint_patch_points``: the cost before 2026-11-25's change)
-    c_all = c_blocks.replace(blocks=c.blocks.grown(joint_patch_points=c.blocks.contact_slots))
+    b = c.blocks  # BlockConfig.grown (BlockCapacities) where this commit has it, else its own field
+    all_slots = (b.grown(joint_patch_points=b.contact_slots) if hasattr(b, "grown")
+                 else dataclasses.replace(b, joint_patch_points=b.contact_slots))
+    c_all = c_blocks.replace(blocks=all_slots)
     p_blocks = p.replace(fluid=None, coupling=None)
     cases = [(full, state, p), (chunk(c_fluid), s_fluid, p.replace(blocks=None, coupling=None)),
              (chunk(c_blocks), s_blocks, p_blocks), (chunk(c_all), s_blocks, p_blocks)]
