@@ -111,6 +111,33 @@ def fingerprint(scene):
     return out
 
 
+def compiled_pile(n: int) -> dict:
+    """Op counts of the optimised, compiled XLA program of one block step of an n-box pile
+    (``bench_blocks.pile``): what XLA runs after its own CSE and fusion (the jaxpr can differ where
+    the compiled program does not)."""
+    import collections
+
+    import rockjax as rj
+    import rockjax.blocks as rb
+    from bench_blocks import pile
+
+    polys, pos = pile(n)
+    motion = [rb.Motion.FIXED] + [rb.Motion.DYNAMIC] * n
+    cfg, par, st = rb.make_blocks(polys, positions=pos, motion=motion, normal_stiffness=1e7, shear_stiffness=4e6,
+                                  broadphase=rb.Broadphase.GRID, pair_capacity=None)
+    dt = float(rb.stable_dt(cfg, par, st))
+    g = jnp.asarray([0.0, 0.0, -9.81], st.x.dtype)
+    txt = jax.jit(lambda s: rb.advance_blocks(s, par, cfg, dt=dt, t=0.0, gravity=g)).lower(st).compile().as_text()
+    ops = collections.Counter(re.findall(r"^\s*(?:ROOT )?\S+ = [^ ]+ ([a-z][\w-]*)\(", txt, re.M))
+    import os
+    import subprocess
+
+    commit = subprocess.run(["git", "-C", os.path.dirname(rj.__file__), "rev-parse", "--short", "HEAD"],
+                            capture_output=True, text=True).stdout.strip()
+    return dict(bench="compiled_pile", n_blocks=n, commit=commit, instructions=sum(ops.values()),
+                fusions=ops["fusion"], gathers=ops["gather"], scatters=ops["scatter"], custom_calls=ops["custom-call"])
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--out", default=None)
@@ -118,7 +145,15 @@ def main(argv=None):
     ap.add_argument("--dump", default=None, help="directory: also write each jaxpr's text")
     ap.add_argument("--record", default=None, help="with --compare: append one JSON line per case and program here")
     ap.add_argument("--label", default="", help="with --record: what the two files are (e.g. 'a12d93b vs HEAD')")
+    ap.add_argument("--compiled-pile", type=int, default=None, metavar="N",
+                    help="instead: op counts of the compiled block step of an N-box pile (JSON line)")
     args = ap.parse_args(argv)
+    if args.compiled_pile:
+        import time
+
+        rec = dict(compiled_pile(args.compiled_pile), date=time.strftime("%Y-%m-%d"))
+        print(json.dumps(rec), file=open(args.out, "a") if args.out else sys.stdout, flush=True)
+        return 0
     if args.compare:
         a = {r["case"]: r for r in map(json.loads, open(args.compare[0]))}
         b = {r["case"]: r for r in map(json.loads, open(args.compare[1]))}

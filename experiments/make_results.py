@@ -1061,6 +1061,14 @@ def sec_redesign(doc: Doc):
               "The wedge and incline cases differ in the blocks' contact stage, which became `blocks/laws.py` "
               "(contact law object) and `BlockState.history`: forces bit-identical, torques a few ULP apart "
               "(XLA's fused multiply-adds grouped differently); timed below.")
+    hlo = doc.records("redesign_hlo.jsonl", "python experiments/jaxpr_fingerprint.py --compiled-pile 100 --out "
+                                            "experiments/results/redesign_hlo.jsonl (PYTHONPATH=<old tree>/src, then HEAD)")
+    if hlo:
+        doc.p("What XLA runs for one block step of the 100-box pile, compiled and optimised (`jaxpr_fingerprint.py "
+              "--compiled-pile 100`): the contact-law refactor's extra jaxpr gathers are merged by XLA's CSE.")
+        doc.p(table(["commit", "instructions", "fusions", "gathers", "scatters", "custom calls", "date"],
+                    [[r["commit"], r["instructions"], r["fusions"], r["gathers"], r["scatters"], r["custom_calls"],
+                      r["date"]] for r in hlo]))
     for name, metric, what in (("redesign_ab_blocks.jsonl", "block_steps_per_s", "100-box pile (bench_blocks.py)"),
                                ("redesign_ab_wedge.jsonl", "fluid_particle_steps_per_s",
                                 "sliding wedge, penalty coupling, dx 0.04 m (bench_coupled.py, full coupled step)"),
