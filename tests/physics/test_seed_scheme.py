@@ -83,7 +83,7 @@ def test_pressure_force_is_half_the_elastic_energys_gradient_with_the_density_ke
     With the poly6 gradient (``Poly6Gradient``, the density's kernel) it is ``-grad E / 2`` up to
     the difference between Mueller's form ``(p_i + p_j) / (2 rho_i rho_j)`` and half the
     energy-conserving ``p_i / rho_i^2 + p_j / rho_j^2``, which is second order in the density spread
-    (4.7 % here; measured 2026-11-28: 9.4e-4 of the force, the spiky gradient's 2.1). The halving is
+    (4.7 % here; measured 9.4e-4 of the force, the spiky gradient's 2.1). The halving is
     Mueller's symmetrisation (the paper's Eq 14), which is also why the seed scheme's pressures at rest
     are about twice hydrostatic. With the paper's spiky gradient
     the force is not that of the energy at all (why the scheme never comes to rest,

@@ -7,7 +7,7 @@ a closed-bottom tank 2a long and 4a high, as a periodic slab 7 dx wide (``scenes
 sloshing, and ~35 s of water coming to rest). ``ROCKJAX_STRESS_LONG_STEPS`` overrides the count.
 
 Checks, per run (WCSPH with the default Fourtakas diffusion, WCSPH with Antuono's, seed, and seed
-with ``SeedGradient.POLY6``):
+with ``Poly6Gradient``):
 * mass: the fluid mass (sum of rho0 vol over fluid particles, ``observables.fluid_mass``) at the
   end equals the start bit for bit, no particle changed kind, every fluid particle is finite and
   inside the tank (within half a spacing of its walls) -- nothing leaked or was dropped;
@@ -18,47 +18,12 @@ with ``SeedGradient.POLY6``):
   - drift at rest over the last half of the run (the water is still): |E(end) - E(mid)| <= 1e-3,
     i.e. no slow float32 creep of energy over 5e4 steps.
 
-Measured 2026-11-23 (float32, 1e5 steps; 5-6 min wall per scheme at load ~7, 10-12 min at load ~13):
-mass exact and no growth above E(0) for both schemes; the rebound and late-drift bounds fail for
-both (numbers in ``KNOWN``; xfail strict).
-
-WCSPH cause, measured 2026-11-24 (``experiments/energy_creep.py``, float64, RESULTS.md): the
-delta-SPH density diffusion feeds the climb while the arrangement the impact left relaxes (the bottom
-layer sits ~0.4 dx above the floor instead of 0.5 dx). Continued from the state at 4 s for 6 s:
-+2.8e-3 m g 2a with every term, +2.8e-3 without artificial viscosity, +2.8e-4 without diffusion,
-+2.4e-3 with the Fourtakas hydrostatic term made odd in ``g . x_ij``. The rebound converges with
-resolution, 4.7e-3 / 2.4e-3 / 1.5e-3 at a/dx = 4 / 6 / 8 (16 s).
-
-Fix, 2026-11-25: the Fourtakas term pulls every pair's density difference towards the exact
-hydrostatic one, while the discrete equilibrium (kernel truncation at the floor and the surface,
-Adami walls) has a slightly different profile: the diffusion keeps working against it and lifts
-the column. Antuono et al. (2010)'s consistent diffusion (``DensityDiffusion.ANTUONO``) removes
-the linear part of each pair's difference with renormalised gradients, so any linear profile is
-left alone. The third run (``wcsph-antuono``) uses it: measured (float32, 1e5 steps, 41 s)
-rebound 5.2e-4, late drift 5.0e-5 -- within the bounds.
-
-Second fix, 2026-11-26, of the default (``DensityDiffusion.FOURTAKAS``; the old term is kept as
-``FOURTAKAS_SURFACE``): found by summing the diffusion at rest, Fourtakas et al.'s hydrostatic
-difference (from the surface's density) is not odd in the pair, so the diffusion was a net
-density source of 42 % of its summed magnitude; the default now takes it about each pair's mean
-density (``wcsph.hydrostatic_pair_difference``: odd, exact to third order at any depth). The energy
-now levels off instead of creeping (``experiments/energy_creep.py --variants``): measured
-(float32, 1e5 steps, 24 s) rebound 3.06e-3 (was 5.6e-3 / 6.4e-3), late drift 2.6e-4 (was
-1.40e-3 / 1.56e-3): the late-drift bound now holds. The rebound sits at its bound: 3.06e-3 here,
-4.0e-3 in float64 (the impact is chaotic, so rounding moves it by tens of per cent), so it is
-a non-strict xfail (``EDGE``): reported either way, failing neither. It is the column settling
-into the discrete rest state that the diffusion and the truncated kernel at the free surface agree
-on, and shrinks with resolution (float64, 16 s: 3.6e-3 / 1.9e-3 / 1.0e-3 at a/dx = 4 / 6 / 8).
-
-Seed scheme, cause measured 2026-11-28 (``experiments/seed_rest.py``, float32, 11 s, RESULTS.md): the
-paper's pressure force takes the gradient of the spiky kernel while the density is summed with poly6,
-so the force is not the gradient of the scheme's elastic energy and the column never settles
-(kinetic 2-4e-2 m g 2a throughout; rebound 2.3e-2). With the poly6 gradient
-(``Config.seed_gradient = SeedGradient.POLY6``, the fourth run) it settles (kinetic 3.5e-4 at 2 s,
-3.5e-5 at 11 s; rebound 2.6e-4); measured here (1e5 steps, 52 s wall): rebound 3.1e-4, late drift
-7.9e-5, kinetic 2.3e-5 at the end -- within the bounds. The energy-conserving form
-``p_i / rho_i^2 + p_j / rho_j^2`` does not help with the spiky gradient (rebound 5.9e-2): the kernel
-mismatch is the cause.
+What the four runs give (RESULTS.md, "WCSPH energy rebound" and "Seed scheme at rest"; the history
+of the fixes in docs/notes.md): mass exact and no growth above E(0) everywhere; WCSPH with the
+default ``sph.diffusion.Fourtakas`` levels off after the impact with a rebound at the 3e-3 bound (a
+non-strict xfail, ``EDGE``), with ``Antuono`` well within it; the seed scheme with the paper's spiky
+gradient never comes to rest (strict xfails, ``KNOWN``: the spiky gradient is not that of the poly6
+summation density), with ``Poly6Gradient`` it settles within the bounds.
 """
 
 from __future__ import annotations
@@ -145,7 +110,7 @@ KNOWN = {
     ("rebound", "wcsph"): "measured 2026-11-26 (float32, 1e5 steps): rebound 3.06e-3 > 3e-3 m g 2a (float64: 4.0e-3): "
     "after the impact the column rises into the rest state that the diffusion and the truncated kernel agree on and "
     "levels off (late drift 2.6e-4). Before the fix of 2026-11-26 (module docstring; "
-    "``DensityDiffusion.FOURTAKAS_SURFACE``) 5.6e-3 / 6.4e-3, climbing at ~1.5e-4 m g 2a per second to the end. "
+    "``FourtakasSurface``) 5.6e-3 / 6.4e-3, climbing at ~1.5e-4 m g 2a per second to the end. "
     "Shrinks with resolution (float64, 16 s: 3.6e-3 / 1.9e-3 / 1.0e-3 at a/dx = 4 / 6 / 8)",
     ("rebound", "seed"): "measured 2026-11-23 (float32, 1e5 steps, two runs): rebound 2.1e-2 / 2.6e-2 > 3e-3 m g 2a: at a/dx = 4 "
     "the seed scheme's water never comes to rest in 36.7 s (kinetic 2.5e-2 m g 2a at the end, mean |rho/rho0 - 1| "

@@ -8,13 +8,13 @@
   difference, so a linear field gets no diffusion at all (Molteni & Colagrossi's uncorrected term
   does, near the surface and the walls: the test would see a wrong correction).
 * Molteni's, Antuono's and Fourtakas et al. (2019)'s terms conserve the fluid volume: sum_i V_i D_i
-  = 0 (antisymmetric pair terms; ``FOURTAKAS``'s hydrostatic difference, taken about the pair's
-  mean density, is odd in the pair). ``FOURTAKAS_SURFACE``'s (Fourtakas et al.'s own, from the
+  = 0 (antisymmetric pair terms; ``Fourtakas``'s hydrostatic difference, taken about the pair's
+  mean density, is odd in the pair). ``FourtakasSurface``'s (Fourtakas et al.'s own, from the
   surface's density) is not odd in the pair separation (rho0 ((1 + a)^(1/gamma) - 1) has an even
   part ~ -rho0 (gamma - 1) a^2 / (2 gamma^2)), so its residual is that even part's sum, computed
   here in closed form from the pairs.
-* A column at rest with the exact (Tait) hydrostatic densities gets almost no ``FOURTAKAS``
-  diffusion (Molteni's term does, where the kernel is truncated; ``FOURTAKAS_SURFACE`` some, at
+* A column at rest with the exact (Tait) hydrostatic densities gets almost no ``Fourtakas``
+  diffusion (Molteni's term does, where the kernel is truncated; ``FourtakasSurface`` some, at
   the bottom, where its slope from the surface's density is off by the depth's compressibility).
 
 Scene: a small 3D dam-break column (free surface on three sides, walls below and behind),
@@ -137,7 +137,7 @@ def test_fourtakas_leaves_a_hydrostatic_column_alone(column):
     """Exact hydrostatic densities (Tait, compressible) on the (unjittered) column: the Fourtakas term
     (pair-mean hydrostatic difference, exact to third order in the pair's height difference) is
     below 1e-5 of Molteni's, which sees the truncated kernel at the surface and the walls (measured
-    2026-11-26: 9.7e-7); Fourtakas et al.'s surface series (``FourtakasSurface``) leaves more than
+    9.7e-7); Fourtakas et al.'s surface series (``FourtakasSurface``) leaves more than
     1e-2 at the bottom layer (measured 2.3e-2: its one-sided stencil sums the series' slope error,
     ~(gamma - 2) g depth / c0^2 of the hydrostatic difference)."""
     sc, _, _ = column

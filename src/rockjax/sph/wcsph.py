@@ -1,4 +1,4 @@
-"""The accurate weakly compressible scheme (``Scheme.WCSPH``, the default).
+"""The accurate weakly compressible scheme (``sph.schemes.WCSPH``, the default).
 
 * continuity equation ``drho_i/dt = rho_i sum_j V_j (v_i - v_j) . grad W_ij`` plus delta-SPH
   density diffusion over fluid pairs (Molteni & Colagrossi 2009; Fourtakas et al. 2019 subtract
