@@ -23,8 +23,8 @@ from typing import ClassVar
 import jax.numpy as jnp
 import numpy as np
 
-from .diffusion import DensityDiffusion, Fourtakas, NoDiffusion
-from .kernels import Kernel, Poly6Gradient, SeedGradientKernel, SpikyGradient, WendlandC2
+from .diffusion import DensityDiffusion, Fourtakas
+from .kernels import Kernel, SeedGradientKernel, SpikyGradient, WendlandC2
 from .terms import Term, by_name, names
 from .viscosity import Artificial, Viscosity
 from .walls import Adami, WallModel
@@ -231,6 +231,3 @@ def from_names(scheme: str = "wcsph", *, kernel: str | None = None, viscosity: s
         kwargs[key] = by_name(family[key], value)
     return cls(**kwargs)
 
-
-# the registered names of every term family (imported for their registration)
-_ = (NoDiffusion, Poly6Gradient)

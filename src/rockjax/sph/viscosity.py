@@ -23,6 +23,7 @@ from typing import ClassVar
 
 import jax.numpy as jnp
 
+from .neighbours import safe_norm
 from .terms import Term
 
 __all__ = ["Viscosity", "Artificial", "Laminar", "LaminarSPS"]
@@ -97,8 +98,6 @@ def _velocity_gradient_pair(ri, cj, d, params, mask, fluid_j, config):
     """The six strain-rate sums of pair (i, j) [R, K] (a ``pair_sum`` pair function):
     ``V_j (v_j - v_i)_a (grad_i W_ij)_b`` for ``ab`` = xx, yy, zz, and the symmetric sums
     ``(..)_ab + (..)_ba`` for xy, xz, yz (so that ``S_ab = g_ab / 2`` off the diagonal)."""
-    from .neighbours import safe_norm
-
     r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
     F = jnp.where(mask, config.scheme.kernel.f(safe_norm(r2), params.fluid.h), 0.0)
     w = params.fluid.rho0 * cj["vol"] / cj["rho"] * F  # V_j F
