@@ -9,12 +9,14 @@ The public API, re-exported explicitly:
 * ``simulate(scene, t_end=...)`` (the host driver) and ``SimulationError``;
 * ``scenes`` (built-in scene builders returning a ``Scene``), ``observables``, ``io``;
 * the physics packages: ``blocks`` (3D-DDA rock blocks), ``coupling`` (fluid-block exchange);
-* ``calibrate`` (differentiable losses, optax calibration) and ``ensembles`` (vmap / sharded runs).
+* ``calibrate`` (differentiable losses, optax calibration), ``gradcheck`` (is a gradient good at
+  the scale a calibration moves?) and ``ensembles`` (vmap / sharded runs).
 """
 
 __version__ = "0.1.0"
 
 from . import blocks, calibrate, coupling, ensembles, io, observables, scenes, sph
+from .gradcheck import gradcheck
 from .driver import Result, SimulationError, simulate
 from .rollout import make_rollout, rollout
 from .scenes import Scene
@@ -33,5 +35,5 @@ __all__ = [
     "WCSPH", "SeedScheme", "Tuning", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
     "make_step", "prime", "make_rollout", "rollout",
     "simulate", "Result", "SimulationError",
-    "Scene", "scenes", "observables", "io", "sph", "blocks", "coupling", "calibrate", "ensembles",
+    "Scene", "scenes", "observables", "io", "sph", "blocks", "coupling", "calibrate", "ensembles", "gradcheck",
 ]
