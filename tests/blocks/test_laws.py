@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from rockjax.blocks import BlockParams, ContactLaw, ContactPoint, PenaltyCoulomb, box, make_blocks
-from rockjax.blocks.laws import LawResult
+from rockjax.blocks.laws import LawResult, SmoothPenaltyCoulomb, smooth_ramp, smoothstep
 
 KN, KS, ZETA, PHI, COH = 1e6, 4e5, 0.2, math.radians(30.0), 0.0
 M_RED = 50.0  # kg
@@ -120,3 +120,130 @@ def test_the_law_is_a_static_choice_on_the_config():
         dataclasses.replace(cfg, law="penalty")
     with pytest.raises(ValueError, match="ContactLaw"):
         make_blocks([box(1.0, 1.0, 1.0)], law=object())
+
+
+# --------------------------------------------------------------------------------------------
+# SmoothPenaltyCoulomb: the sharp law outside its bands, continuous across them
+# --------------------------------------------------------------------------------------------
+
+DS, VS, BAND = 1e-5, 1e-3, 0.05
+SMOOTH = SmoothPenaltyCoulomb(onset_depth=DS, closing_speed=VS, slip_band=BAND)
+
+
+def smooth(p, history=(0.0, 0.0, 0.0), **kw):
+    return SMOOTH(p, jnp.asarray(history, jnp.float64), params(**kw), DT)
+
+
+def test_smooth_ramp_and_smoothstep_closed_forms(x64):
+    x = jnp.linspace(-2.0, 2.0, 41)
+    r = np.asarray(smooth_ramp(x, 0.5))
+    xn = np.asarray(x)
+    np.testing.assert_allclose(r, np.where(xn >= 0.5, xn, np.where(xn <= -0.5, 0.0, (xn + 0.5) ** 2 / 2.0)), rtol=1e-15)
+    np.testing.assert_array_equal(np.asarray(smooth_ramp(x, 0.0)), np.maximum(xn, 0.0))
+    # C1 at both band edges: the one-sided slopes agree
+    for x0, slope in ((-0.5, 0.0), (0.5, 1.0)):
+        g = [float(jax.grad(lambda t: smooth_ramp(t, 0.5))(jnp.asarray(x0 + s))) for s in (-1e-9, 1e-9)]
+        np.testing.assert_allclose(g, slope, atol=1e-8)
+    t = jnp.asarray([0.0, 0.25, 0.5, 1.0, 2.0])
+    np.testing.assert_allclose(np.asarray(smoothstep(t)), [0.0, 0.15625, 0.5, 1.0, 1.0], rtol=1e-15)
+    assert float(jax.grad(lambda a: smooth_ramp(a, 0.0))(jnp.asarray(0.5))) == 1.0  # no NaN at width 0
+
+
+@pytest.mark.parametrize("vz", [-0.05, 0.0, 5.0])
+def test_smooth_law_is_the_sharp_law_beyond_its_bands(x64, vz):
+    # deep (depth >= d_s, shifted by d_s/2), closing or opening faster than VS (or at rest), and a
+    # tangential state far below / far above the cap: equal to PenaltyCoulomb to round-off
+    d = 2e-4
+    for hist, vt in (((1e-5, 0.0, 0.0), 0.0), ((1e-3, 2e-4, 0.0), 0.02)):
+        vel = (vt, 0.0, vz)
+        sharp = law(point(d, vel, 2.0), history=hist)
+        soft = smooth(point(d + 0.5 * DS, vel, 2.0), history=hist)
+        if vz == 0.0:
+            np.testing.assert_allclose(float(soft.normal_force), float(sharp.normal_force)
+                                       + 2 * ZETA * math.sqrt(KN * M_RED / 2) * VS / 4, rtol=1e-13)
+            continue  # at v_n = 0 the dashpot's rounded corner adds c_n VS / 4 (the band's middle)
+        np.testing.assert_allclose(float(soft.normal_force), float(sharp.normal_force), rtol=1e-13)
+        np.testing.assert_allclose(np.asarray(soft.tangential_force), np.asarray(sharp.tangential_force),
+                                   rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(np.asarray(soft.history), np.asarray(sharp.history), rtol=1e-12, atol=1e-18)
+
+
+def test_smooth_onset_starts_from_zero_force(x64):
+    # closing fast with cohesion and a sliding velocity: at depth 0 every force is 0, and the normal
+    # force and its depth-slope rise continuously from there (the sharp law jumps to c_n |v_n|)
+    vel = (0.3, 0.0, -0.5)
+    f = lambda dep: smooth(point(dep, vel), cohesion=30.0)
+    r0 = f(0.0)
+    assert float(r0.normal_force) == 0.0 and not np.any(np.asarray(r0.tangential_force))
+    assert float(law(point(1e-12, vel), cohesion=30.0).normal_force) > 10.0  # the sharp law's jump
+    fn = np.array([float(f(d).normal_force) for d in (1e-9, 1e-8, 1e-7)])
+    assert np.all(np.diff(fn) > 0) and fn[0] < 1e-3 * fn[-1] * 100  # ~ quadratic (w ~ 3 t^2) near 0
+    dfn = float(jax.grad(lambda dep: f(dep).normal_force)(jnp.asarray(1e-12)))
+    assert abs(dfn) < 1e-3 * KN  # the slope starts from 0 too (C1 onset)
+    # beyond the onset band the spring is the sharp one, shifted by d_s / 2
+    # (plus c_n VS / 4: at v_n = 0 the closing-only dashpot sits in its rounded corner)
+    np.testing.assert_allclose(float(smooth(point(5 * DS)).normal_force),
+                               KN * 4.5 * DS + 2 * ZETA * math.sqrt(KN * M_RED) * VS / 4, rtol=1e-14)
+
+
+def test_smooth_point_count(x64):
+    depth = jnp.asarray([[1.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [1.0, 0.25, 0.25, 0.0]]) * 2 * DS
+    active = depth > 0
+    n = np.asarray(SMOOTH.pair_points(jnp.sum(active, -1), depth, active))
+    np.testing.assert_allclose(n[:2], [2.0, 1.0], rtol=1e-15)  # integer counts where weights are 0 or 1
+    w = 0.5  # smoothstep(0.5): one full point and two half points count 1 + 2 w (the product is 0)
+    np.testing.assert_allclose(n[2], 1.0 + 2 * w, rtol=1e-15)
+    half = np.asarray(SMOOTH.pair_points(jnp.asarray([2]), depth[2:, 1:], active[2:, 1:]))
+    np.testing.assert_allclose(half, 2 * w + (1 - w) ** 2, rtol=1e-15)  # two half points: 1.25
+    # the default law's count is max(count, 1), as before
+    np.testing.assert_array_equal(np.asarray(PenaltyCoulomb().pair_points(jnp.sum(active, -1), depth, active)),
+                                  [2.0, 1.0, 3.0])
+    # continuous and >= 1 as one point ramps in
+    ws = jnp.linspace(0.0, 2 * DS, 21)
+    counts = [float(SMOOTH.pair_points(jnp.asarray([1]), jnp.asarray([[d, 2 * DS]]), jnp.asarray([[True, True]]))[0])
+              for d in ws]
+    assert min(counts) >= 1.0 and max(np.abs(np.diff(counts))) < 0.2
+
+
+def test_smooth_stick_slip_is_continuous(x64):
+    # stretch the shear spring through the cap: the force's magnitude and the new history move
+    # continuously and monotonically; the sharp law's history jumps by c_t v_t / k_s at the cap
+    d, vt = 2e-4, 0.02
+    dep = d + 0.5 * DS
+    ct = 2 * ZETA * math.sqrt(KS * M_RED)
+    cap = (KN * d + 2 * ZETA * math.sqrt(KN * M_RED) * VS / 4) * math.tan(PHI)  # v_n = 0: the dashpot's corner
+    # the trial force a = k_s (u0 + vt dt) + ct vt, swept from 0.8 to 1.2 caps
+    u0s = (np.linspace(0.8, 1.2, 401) * cap - ct * vt) / KS - vt * DT
+    f_soft, h_soft, h_sharp = [], [], []
+    for u0 in u0s:
+        s = smooth(point(dep, (vt, 0.0, 0.0)), history=(u0, 0.0, 0.0))
+        f_soft.append(-float(s.tangential_force[0]))
+        h_soft.append(float(s.history[0]))
+        h_sharp.append(float(law(point(d, (vt, 0.0, 0.0)), history=(u0, 0.0, 0.0)).history[0]))
+    f_soft, h_soft, h_sharp = map(np.asarray, (f_soft, h_soft, h_sharp))
+    step = (u0s[1] - u0s[0]) * KS
+    assert np.all(np.diff(f_soft) >= -1e-9) and np.max(np.diff(f_soft)) <= step * 1.0001
+    np.testing.assert_allclose(f_soft[-1], cap, rtol=1e-12)  # exactly on the cap beyond the band
+    jump_sharp = np.max(np.abs(np.diff(h_sharp)))
+    jump_soft = np.max(np.abs(np.diff(h_soft)))
+    assert jump_sharp == pytest.approx(ct * vt / KS, rel=0.02)
+    assert jump_soft < 0.1 * jump_sharp  # spread over the band: 2 BAND cap / step ~ 40 samples
+
+
+def test_smooth_law_gradient_in_the_band(x64):
+    # d f_t / d phi inside the slip band vs a central secant (the law is C1 there)
+    d, u0 = 2e-4 + 0.5 * DS, None
+    cap = KN * 2e-4 * math.tan(PHI)
+    u0 = cap * 1.01 / KS
+    f = lambda phi: smooth(point(d), history=(u0, 0.0, 0.0), friction_angle=phi).tangential_force[0]
+    g = float(jax.grad(f)(jnp.asarray(PHI)))
+    for h in (1e-6, 1e-7):
+        fd = (float(f(jnp.asarray(PHI + h))) - float(f(jnp.asarray(PHI - h)))) / (2 * h)
+        np.testing.assert_allclose(g, fd, rtol=1e-6)
+
+
+@pytest.mark.parametrize("field,value", [("onset_depth", 0.0), ("closing_speed", -1.0), ("slip_band", 1.5),
+                                         ("slip_band", float("nan"))])
+def test_smooth_law_rejects_bad_widths(field, value):
+    with pytest.raises(ValueError, match=field):
+        SmoothPenaltyCoulomb(**{field: value})

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rockjax.blocks import box, energies, make_blocks, stable_dt
+from rockjax.blocks import SmoothPenaltyCoulomb, box, energies, make_blocks, stable_dt
 
 from rollouts import incline_scene, run
 
@@ -21,6 +21,9 @@ DT = 2.5e-4
 N = 1000
 EVERY = 10
 G = 9.81
+#: the smooth law at its default widths must pass the sharp law's closed-form checks (issue 44)
+SMOOTH = SmoothPenaltyCoulomb()
+LAWS = pytest.mark.parametrize("law", [None, SMOOTH], ids=["sharp", "smooth"])
 
 
 def chained(cfg, st, par, chunks, gravity=(0.0, 0.0, -G)):
@@ -68,11 +71,13 @@ def test_free_fall_and_free_rotation():
     np.testing.assert_allclose(x[:, 0], np.broadcast_to(np.asarray(st.x[0]), x[:, 0].shape))  # FIXED
 
 
-def test_incline_sliding_acceleration():
+@LAWS
+def test_incline_sliding_acceleration(law):
     """theta = 30 deg, mu = 0.3: a = g (sin theta - mu cos theta) = 2.3563 m/s^2 (file section (a)),
     measured as the least-squares slope of the down-slope velocity over t in [0.25, 1] s: within 0.5 %."""
     th, mu = 30.0, 0.3
-    cfg, par, st, down, _ = incline_scene(theta_deg=th, b=0.2, h=0.2, phi_deg=np.degrees(np.arctan(mu)), s0=-1.5)
+    cfg, par, st, down, _ = incline_scene(theta_deg=th, b=0.2, h=0.2, phi_deg=np.degrees(np.arctan(mu)), s0=-1.5,
+                                              law=law)
     st, t, x, q, v, stat = chained(cfg, st, par, 4)
     assert stat == 0, stat
     vd = v[:, 1] @ down
@@ -85,8 +90,8 @@ def test_incline_sliding_acceleration():
     assert np.max(np.abs(np.abs(q[:, 1, 0]) - np.cos(np.radians(th) / 2))) < 1e-3
 
 
-@pytest.mark.parametrize("zeta", [1.0, 0.2])
-def test_incline_sticks_below_friction_angle(zeta):
+@pytest.mark.parametrize("zeta,law", [(1.0, None), (0.2, None), (0.2, SMOOTH)], ids=["1.0", "0.2", "0.2-smooth"])
+def test_incline_sticks_below_friction_angle(zeta, law):
     """theta = 25 deg < phi = 30 deg, released from rest: the block must stick.
 
     Release is a step load on the shear springs (k_s = 1e6 N/m, static deflection
@@ -96,7 +101,7 @@ def test_incline_sticks_below_friction_angle(zeta):
     block slips once on release (measured 0.12 mm, an artefact of penalty springs that scales as
     1/k_s) and then sticks: after 0.5 s it creeps < 1 um.
     """
-    cfg, par, st, down, _ = incline_scene(theta_deg=25.0, b=0.2, h=0.2, phi_deg=30.0, zeta=zeta)
+    cfg, par, st, down, _ = incline_scene(theta_deg=25.0, b=0.2, h=0.2, phi_deg=30.0, zeta=zeta, law=law)
     x0 = np.asarray(st.x[1])
     st, t, x, q, v, stat = chained(cfg, st, par, 8)
     assert stat == 0, stat
@@ -112,7 +117,8 @@ def test_incline_sticks_below_friction_angle(zeta):
 
 
 @pytest.mark.parametrize("zeta", [0.2, 0.5])
-def test_bounce_restitution_closing_only(zeta):
+@LAWS
+def test_bounce_restitution_closing_only(zeta, law):
     """A box hits the floor flat at v0 = 1 m/s without gravity.
 
     Derivation (file section (b)): its 4 corner springs (k each) and dashpots
@@ -129,7 +135,7 @@ def test_bounce_restitution_closing_only(zeta):
     step's impulse that is halved on average: tolerance 1 % of e.
     """
     cfg, par, st, _, _ = incline_scene(theta_deg=0.0, b=0.2, h=0.2, phi_deg=0.0, kn=1e5, ks=1e5, zeta=zeta,
-                                       lift=1e-3, v0=np.array([0.0, 0.0, -1.0]))
+                                       lift=1e-3, v0=np.array([0.0, 0.0, -1.0]), law=law)
     st, t, x, q, v, stat = chained(cfg, st, par, 1, gravity=(0.0, 0.0, 0.0))
     assert stat == 0, stat
     e_exact = np.exp(-zeta * np.arccos(zeta) / np.sqrt(1 - zeta**2))

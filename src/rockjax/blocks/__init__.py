@@ -11,7 +11,8 @@
 * ``fcp``: the Fast Common Plane narrow phase (Nezami et al. 2004).
 * ``contact``: contact points and ``contact_forces`` (FCP -> points -> law -> loads on the blocks).
 * ``laws``: the contact law, a static choice on ``BlockConfig.law``: ``ContactLaw`` (the interface),
-  ``PenaltyCoulomb`` (penalty springs, closing-only damping, Coulomb cap on a shear spring).
+  ``PenaltyCoulomb`` (penalty springs, closing-only damping, Coulomb cap on a shear spring),
+  ``SmoothPenaltyCoulomb`` (the same with its switches spread over stated widths: smooth gradients).
 * ``joint_water``: hydrostatic water pressure on contact patches (``BlockConfig.joint_water``).
 * ``integrate``: ``advance_blocks``, one central-difference step (seed Eq 5-7).
 
@@ -21,7 +22,7 @@ This package does not import ``rockjax.sph``.
 from .contact import contact_forces
 from .geometry import ConvexPolyhedron, PackedBlocks, box, pack, prism, slab, slope, wedge
 from .integrate import advance_blocks, prescribed_motion
-from .laws import ContactLaw, ContactPoint, LawResult, PenaltyCoulomb
+from .laws import ContactLaw, ContactPoint, LawResult, PenaltyCoulomb, SmoothPenaltyCoulomb
 from .model import (
     BlockCapacities,
     BlockConfig,
@@ -67,7 +68,7 @@ __all__ = [
     "LawResult",
     "Motion",
     "PackedBlocks",
-    "PenaltyCoulomb",
+    "PenaltyCoulomb", "SmoothPenaltyCoulomb",
     "advance_blocks",
     "block_capacities",
     "block_config",

@@ -403,7 +403,7 @@ def _law_loads(law: ContactLaw, params: BlockParams, dt, b: _Bodies, i, j, n, pt
       force on j and the torques on j and i about their centroids (i gets ``-F_j``).
     """
     m_red = 1.0 / jnp.maximum(b.inv_m[i] + b.inv_m[j], 1e-30)  # [S] kg
-    n_act = jnp.maximum(n_points.astype(pts.dtype), 1.0)
+    n_act = law.pair_points(n_points, depth, active)  # [S] the pair's damping shares (>= 1)
     ri = pts - b.x[i][:, None, :]
     rj = pts - b.x[j][:, None, :]
     vi = b.v[i][:, None, :] + jnp.cross(b.omega[i][:, None, :], ri)
