@@ -269,3 +269,48 @@ def test_boundary_integral_needs_wcsph():
                        coupling=Coupling.BOUNDARY_INTEGRAL)
     with pytest.raises(ValueError, match="BOUNDARY_INTEGRAL needs scheme WCSPH"):
         scene.config.replace(scheme=rj.SeedScheme())
+
+
+def test_penalty_smooth_onset_and_face_blend():
+    """``coupling.Penalty(onset=, face_blend=)`` (issue 44): one layer of fluid particles swept through
+    the penalty layer of a resting box's top face while approaching it at 0.3 m/s, and one around its
+    edge. The seed law jumps to ``K_D |v_n|`` where a particle enters (d = 0+) and switches faces at
+    the edge's bisector; the smooth law starts from zero and turns the normal continuously, and is the
+    seed's law (shifted by d_s / 2) beyond its onset band and away from the edge."""
+    scene, state = _submerged(Coupling.PENALTY)
+    config, params = scene.config, scene.params
+    P, B = state.particles, state.blocks
+    B = B.replace(v=jnp.zeros_like(B.v), omega=jnp.zeros_like(B.omega), q=B.q.at[0].set(jnp.asarray([1.0, 0, 0, 0])))
+    nf = config.n_fluid
+    cp = params.coupling
+    r0, ks, kd = float(cp.interaction_distance), float(cp.penalty_stiffness), float(cp.penalty_damping)
+    top = np.asarray(B.x[0]) + np.array([0.01, 0.0, 0.05])
+    smooth = config.replace(coupling=penalty.Penalty(onset=0.5, face_blend=0.05))
+    kind = P.kind.at[:nf].set(rj.Kind.FLUID)
+
+    def acc_at(points, cfg, v=(0.0, 0.0, -0.3)):
+        x = P.x.at[:nf].set(jnp.asarray(np.resize(points, (nf, 3)), P.x.dtype))
+        vv = P.v.at[:nf].set(jnp.asarray(v, P.v.dtype))
+        return np.asarray(accelerations(P.replace(x=x, v=vv, kind=kind), B, params, cfg)[0][:, 0])[:len(points)]
+
+    # (1) through the layer along the face normal: d = r0 - s
+    d = np.array([1e-7 * r0, 0.1 * r0, 0.5 * r0, 0.75 * r0, r0])
+    pts = top + (r0 - d)[:, None] * np.array([0.0, 0.0, 1.0])
+    a_sharp, a_smooth = acc_at(pts, config)[:, 2], acc_at(pts, smooth)[:, 2]
+    np.testing.assert_allclose(a_sharp, ks * d + kd * 0.3, rtol=1e-4)
+    assert a_smooth[0] < 1e-6 * a_sharp[0]  # enters with (almost) zero force, the seed's law with K_D |v_n|
+    np.testing.assert_allclose(a_smooth[2:], ks * (d[2:] - 0.25 * r0) + kd * 0.3, rtol=1e-4)
+    assert np.all(np.diff(a_smooth) > 0)
+    # (2) round the edge between the top (+z) and the +x face, half a layer out
+    th = np.linspace(0.0, 0.5 * np.pi, 361)  # 0.25 degree apart
+    edge = np.asarray(B.x[0]) + np.array([0.05, 0.0, 0.05])
+    pts = edge + 0.5 * r0 * np.stack([np.cos(th), np.zeros_like(th), np.sin(th)], 1)
+    n_sharp = acc_at(pts, config, v=(0.0, 0.0, 0.0))
+    n_smooth = acc_at(pts, config.replace(coupling=penalty.Penalty(face_blend=0.05)), v=(0.0, 0.0, 0.0))
+    ang = lambda a: np.degrees(np.arctan2(a[:, 2], a[:, 0]))
+    assert np.max(np.abs(np.diff(ang(n_sharp)))) == pytest.approx(90.0, abs=1e-3)  # the face switch
+    assert np.max(np.abs(np.diff(ang(n_smooth)))) < 3.0  # turns over ~ 4 degrees (tau / (0.5 r0 sqrt 2) rad)
+    # on the faces' normals the other face weighs exp(-0.5 r0 / tau) = exp(-10) = 4.5e-5
+    np.testing.assert_allclose(n_smooth[[0, -1]], n_sharp[[0, -1]], rtol=1e-4, atol=6e-5 * np.abs(n_sharp).max())
+    with pytest.raises(ValueError, match="onset"):
+        penalty.Penalty(onset=-1.0)

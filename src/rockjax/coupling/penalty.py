@@ -30,9 +30,11 @@ from __future__ import annotations
 
 import dataclasses
 
+import jax
 import jax.numpy as jnp
 
-from ..blocks.rotation import quat_matrix, tied_max
+from ..blocks.laws import _smoothstep_integral, smooth_ramp, smoothstep
+from ..blocks.rotation import quat_matrix, safe_norm, tied_max
 from ..sph.kernels import plane_integrals
 from ..types import Config, CouplingState, Kind, Params, Particles
 from .base import CouplingMethod
@@ -48,6 +50,24 @@ class Penalty(CouplingMethod):
     the penalty force, and the block takes the reaction in its next step."""
 
     name = "penalty"
+    #: smooth onset (issue 44), a fraction of ``interaction_distance`` r0: the spring ``K_S d``
+    #: becomes ``K_S d_s S(d / d_s)`` (C2; ``K_S (d - d_s/2)`` beyond ``d_s = onset r0``) and the
+    #: dashpot is scaled by ``smoothstep(d / d_s)``, so a particle entering the layer starts from
+    #: zero force instead of ``-K_D v_n``; the no-pull ``max(., 0)`` is rounded over ``K_S d_s / 4``.
+    #: 0 (default): the seed's law as written.
+    onset: float = 0.0
+    #: smooth nearest face, a fraction of r0: the signed distance is ``tau logsumexp(s_f / tau)``
+    #: and the normal the softmax-weighted mean of the faces' normals (``tau = face_blend r0``),
+    #: so the force turns continuously round a block's edges instead of switching faces there
+    #: (the same as the nearest face wherever one face leads by a few tau). 0: the nearest face.
+    face_blend: float = 0.0
+
+    def __post_init__(self):
+        for nm in ("onset", "face_blend"):
+            v = getattr(self, nm)
+            if not (isinstance(v, (int, float)) and 0.0 <= v < float("inf")):
+                raise ValueError(f"{type(self).__name__}: {nm} must be a finite number >= 0 (a fraction of the "
+                                 f"interaction distance; got {v!r})")
 
     def exchange(self, state, params, config, *, kick: bool):
         if kick:
@@ -116,6 +136,8 @@ def _exchange(P: Particles, blocks, params: Params, config: Config):
     idx = coupled_blocks(config)
     nf = config.n_fluid
     cp = params.coupling
+    method = config.coupling_method
+    onset, face_blend = getattr(method, "onset", 0.0), getattr(method, "face_blend", 0.0)
     x = P.x[:nf]
     v = P.v[:nf]
     fluid = P.kind[:nf] == Kind.FLUID
@@ -136,12 +158,27 @@ def _exchange(P: Particles, blocks, params: Params, config: Config):
             better = fmask[f] & (s_f > s)
             s = jnp.where(better, s_f, s)
             face = jnp.where(better, f, face)
-        n = normals[face]  # [nf, 3]
+        if face_blend > 0:  # a soft maximum over the faces (smooth round the edges)
+            tau = face_blend * cp.interaction_distance
+            S = jnp.where(fmask[None, :], jnp.stack(s_faces, axis=1), -jnp.inf) / tau  # [nf, F]
+            s = tau * jax.nn.logsumexp(S, axis=1)
+            n = jax.nn.softmax(S, axis=1) @ normals
+            n = n / safe_norm(n)[:, None]
+        else:
+            n = normals[face]  # [nf, 3]
         v_surf = blocks.v[b] + jnp.cross(blocks.omega[b], r)
         vn = jnp.sum((v - v_surf) * n, axis=-1)
         d = cp.interaction_distance - s
-        mag = cp.penalty_stiffness * d - cp.penalty_damping * vn
-        mag = jnp.where(fluid & (d > 0), jnp.maximum(mag, 0.0), 0.0)
+        if onset > 0:
+            ds = onset * cp.interaction_distance
+            t = d / ds
+            spring = cp.penalty_stiffness * ds * _smoothstep_integral(t)
+            w = smoothstep(t)  # the no-pull corner's width is ramped in too: zero force at d = 0
+            mag = smooth_ramp(spring - cp.penalty_damping * vn * w, 0.25 * cp.penalty_stiffness * ds * w)
+            mag = jnp.where(fluid & (d > 0), mag, 0.0)
+        else:
+            mag = cp.penalty_stiffness * d - cp.penalty_damping * vn
+            mag = jnp.where(fluid & (d > 0), jnp.maximum(mag, 0.0), 0.0)
         a = mag[:, None] * n
         if drho is not None:
             a_w, drho_w = wall_terms(P, jnp.stack(s_faces, axis=1), v - v_surf, normals, fmask, params, config)
