@@ -43,7 +43,7 @@ import numpy as np
 
 from .calibrate import get_leaf, set_leaf
 
-__all__ = ["gradcheck", "GradCheckReport", "LeafCheck", "VERDICTS"]
+__all__ = ["gradcheck", "classify", "GradCheckReport", "LeafCheck", "VERDICTS"]
 
 #: the verdicts of :attr:`LeafCheck.verdict`, from best to worst
 VERDICTS = ("ok", "rough", "wrong", "unresolved")
@@ -134,6 +134,17 @@ class GradCheckReport:
         return str(path)
 
 
+def classify(ad: float, steps: Sequence[float], fd: Sequence[float], calibration_steps=(1e-3, 1e-4),
+             rtol: float = 0.02) -> str:
+    """The verdict (module docstring) on one derivative from its AD value and its central
+    secants ``fd`` at relative ``steps`` (largest first), for callers that computed them
+    themselves (e.g. secants of a whole observation record from one pair of runs)."""
+    steps, fd = list(steps), list(fd)
+    if steps != sorted(steps, reverse=True):
+        raise ValueError(f"classify: steps must be sorted largest first (got {steps})")
+    return _verdict(float(ad), steps, [float(x) for x in fd], tuple(calibration_steps), rtol)
+
+
 def _verdict(ad: float, steps, fd, cal, rtol: float) -> str:
     a, b = (fd[steps.index(r)] for r in cal)
     if _rel(a, b) <= rtol and _rel(a, ad) <= rtol and _rel(b, ad) <= rtol:
@@ -152,7 +163,7 @@ def gradcheck(loss: Callable, params, leaves: Sequence[str], *,
               steps: Sequence[float] = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6),
               calibration_steps: Sequence[float] = (1e-3, 1e-4), rtol: float = 0.02,
               scan_points: int = 0, scan_width: float = 1e-2, abs_step: float = 1e-4,
-              jit: bool = True) -> GradCheckReport:
+              jit: bool = True, value_and_grad: Optional[Callable] = None) -> GradCheckReport:
     """Compare ``jax.grad(loss)`` with central secants at several steps, leaf by leaf.
 
     Args:
@@ -166,7 +177,9 @@ def gradcheck(loss: Callable, params, leaves: Sequence[str], *,
       rtol: relative agreement (default 2 %).
       scan_points: if > 0, evaluate the loss at that many offsets ``s`` evenly over
         ``[-scan_width, scan_width]`` (relative) for :meth:`GradCheckReport.plot`.
-      jit: jit ``loss`` (and its gradient) here.
+      jit: jit ``loss`` (and its gradient) here; pass ``jit=False`` with an already jitted ``loss``
+        and ``value_and_grad`` to share their compiles between checks.
+      value_and_grad: ``params -> (loss, grads)``; default ``jax.value_and_grad(loss)``.
     Returns:
       :class:`GradCheckReport` (``print`` it; ``report.ok``; ``report["blocks.density[0]"]``).
     Raises:
@@ -188,7 +201,10 @@ def gradcheck(loss: Callable, params, leaves: Sequence[str], *,
             raise ValueError(f"gradcheck: leaf {p!r} has shape {np.shape(get_leaf(params, p))}; "
                              "name one entry, e.g. 'blocks.density[0]'")
     f = jax.jit(loss) if jit else loss
-    vg = jax.jit(jax.value_and_grad(loss)) if jit else jax.value_and_grad(loss)
+    if value_and_grad is not None:
+        vg = value_and_grad
+    else:
+        vg = jax.jit(jax.value_and_grad(loss)) if jit else jax.value_and_grad(loss)
     L0, g = vg(params)
     x64 = jnp.asarray(L0).dtype == jnp.float64
     L0 = float(L0)

@@ -112,3 +112,24 @@ def test_vector_leaf_needs_an_index(x64):
     rep = gradcheck(lambda q: jnp.sum(q.a ** 2), p, ["a[1]"])
     assert rep.ok and rep["a[1]"].ad == pytest.approx(2.0)
     assert np.isfinite(rep.loss)
+
+
+def test_classify_and_shared_value_and_grad(x64):
+    from rockjax.gradcheck import classify
+
+    steps = (1e-2, 1e-3, 1e-4, 1e-5)
+    assert classify(2.0, steps, (2.01, 2.0001, 2.0, 2.0)) == "ok"
+    assert classify(2.0, steps, (7.0, 3.0, 2.5, 2.0)) == "unresolved"  # no two successive secants agree
+    assert classify(2.0, steps, (7.0, 3.0, 2.0, 2.0)) == "rough"  # the finest pair converged, to AD
+    assert classify(2.0, steps, (4.0, 4.0, 4.0, 4.0)) == "wrong"
+    assert classify(2.0, steps, (1.0, 3.0, -1.0, 5.0)) == "unresolved"
+    with pytest.raises(ValueError, match="sorted"):
+        classify(2.0, steps[::-1], (1.0, 1.0, 1.0, 1.0))
+    calls = []
+
+    def vg(p):
+        calls.append(1)
+        return jax.value_and_grad(lambda q: q.a ** 3 + q.b)(p)
+
+    rep = gradcheck(lambda p: p.a ** 3 + p.b, point(), ["a", "b"], value_and_grad=vg, jit=False)
+    assert rep.ok and len(calls) == 1
