@@ -1,0 +1,155 @@
+"""Which switches make a coupled wedge's gradient local? An A/B of the smooth settings (issue 44).
+
+Scene: ``scenes.sliding_wedge`` at dx = 0.05 m (the gradient tests' wedge: a 0.2 m wedge on a 40
+degree slope, front at the shoreline, 0.2 m of water, 0.4 m flat, a 30 degree beach; ~400 water
+particles; seed Eq 22 penalty coupling; joint water on), float64, ``--steps`` steps (default
+1056 = 0.80 s: the wedge in the water and the wave on the beach).
+
+Variants (``--variants``): ``sharp`` (the defaults), ``law`` (``blocks.laws.SmoothPenaltyCoulomb``
+at its default widths), ``coupling`` (``coupling.Penalty(onset=0.5, face_blend=0.1)``), ``both``.
+Per variant, observations after every block of 8 steps: the wedge's down-slope coordinate, the
+free-surface elevation at x = 0.30 m, and the smooth run-up on the far beach. Their derivatives
+w.r.t. each leaf (``--leaves``: density, friction angle, artificial viscosity alpha) come from one
+forward-mode pass per leaf (``jax.jvp``, exact), and central secants at relative steps 1e-2 ...
+1e-6 from two runs per step and leaf; every (observable, time, leaf) is classified with
+``rockjax.gradcheck.classify`` (ok: the 1e-3 and 1e-4 secants agree with AD within 2 %).
+
+Output: JSON lines (``--out``), one per variant x leaf x observable at each of ``--report-times``
+(AD, secants, verdict), and one summary per variant (the fraction of "ok" over all times after
+the wedge reaches the water, per observable and leaf; timings).
+
+    .venv/bin/python experiments/smoothness_ab.py [--steps 1056] [--variants sharp,law,coupling,both]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import os
+import sys
+import time
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+from rockjax import Coupling, Status, scenes  # noqa: E402
+from rockjax.blocks import SmoothPenaltyCoulomb  # noqa: E402
+from rockjax.calibrate import get_leaf, observed, set_leaf  # noqa: E402
+from rockjax.coupling import penalty  # noqa: E402
+from rockjax.gradcheck import classify  # noqa: E402
+from rockjax.observables import gauge_elevation, smooth_runup  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(__file__))
+from jsonl_out import emit  # noqa: E402
+
+STEPS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
+OBS = ("wedge_s", "gauge_030", "smooth_runup")
+
+
+def wedge(dx: float):
+    return scenes.sliding_wedge(dx=dx, slope_angle_deg=40.0, block_length=0.2, block_width=0.2, water_depth=0.2,
+                                flat_length=0.4, flume_width=0.4, start_distance=0.0, coupling=Coupling.PENALTY)
+
+
+def variant(scene, name: str):
+    cfg = scene.config
+    law = SmoothPenaltyCoulomb() if name in ("law", "both") else cfg.blocks.law
+    cpl = penalty.Penalty(onset=0.5, face_blend=0.1) if name in ("coupling", "both") else cfg.coupling
+    return cfg.replace(blocks=dataclasses.replace(cfg.blocks, law=law), coupling=cpl)
+
+
+def observer(scene, config):
+    meta = scene.meta
+    th = math.radians(meta["slope_angle_deg"])
+    s_dir = jnp.asarray([math.cos(th), 0.0, -math.sin(th)])
+    y = 0.5 * meta["flume_width"]
+    x = 0.30
+    pts = jnp.asarray([[x, y]])
+    bottom = jnp.asarray([max(-x * math.tan(th), -meta["water_depth"])])
+    sl = meta.runup_slope
+    dx = float(meta.dx)
+    kw = dict(slope_point=jnp.asarray(sl.point), slope_normal=jnp.asarray(sl.normal), band=2 * dx,
+              still_level=meta["still_level"], x_min=sl.x_min, temperature=0.25 * dx)
+
+    def observe(state, params):
+        eta = gauge_elevation(state, params, config, pts, bottom_z=bottom, still_level=meta["still_level"])
+        return jnp.stack([state.blocks.x[0] @ s_dir, eta[0], smooth_runup(state, **kw)])
+
+    return observe
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--dx", type=float, default=0.05)
+    ap.add_argument("--steps", type=int, default=1056)
+    ap.add_argument("--variants", default="sharp,law,coupling,both")
+    ap.add_argument("--leaves", default="blocks.density[0],blocks.friction_angle,fluid.alpha")
+    ap.add_argument("--report-times", default="0.2,0.3,0.4,0.55,0.8")
+    ap.add_argument("--out", default=None)
+    a = ap.parse_args(argv)
+    scene = wedge(a.dx)
+    leaves = a.leaves.split(",")
+    dt = float(scene.config.dt)
+    every = scene.config.rebuild_every
+    for name in a.variants.split(","):
+        cfg = variant(scene, name)
+        observe = observer(scene, cfg)
+
+        def run(p):
+            final, obs = observed(cfg, p, a.steps, observe, state=scene.state)
+            return obs, final.status
+
+        fwd = jax.jit(run)
+        t0 = time.perf_counter()
+        obs0, status = fwd(scene.params)
+        obs0 = np.asarray(obs0)
+        t_compile = time.perf_counter() - t0
+        if int(status):
+            emit(dict(variant=name, error=Status.describe(int(status))), a.out)
+            continue
+        t0 = time.perf_counter()
+        fwd(scene.params)[0].block_until_ready()
+        t_fwd = time.perf_counter() - t0
+        times = dt * every * np.arange(1, obs0.shape[0] + 1)
+        # the wedge reaches the water (its front at the shoreline) at once; the wave on the beach later
+        ad, fd = {}, {}
+        jvp = jax.jit(lambda p, tp: jax.jvp(lambda q: run(q)[0], (p,), (tp,))[1])
+        t0 = time.perf_counter()
+        for leaf in leaves:
+            x0 = float(get_leaf(scene.params, leaf))
+            tang = jax.tree_util.tree_map(jnp.zeros_like, scene.params)
+            tang = set_leaf(tang, leaf, 1.0)
+            ad[leaf] = np.asarray(jvp(scene.params, tang))
+            sec = []
+            for r in STEPS:
+                h = r * abs(x0)
+                op = np.asarray(fwd(set_leaf(scene.params, leaf, x0 + h))[0])
+                om = np.asarray(fwd(set_leaf(scene.params, leaf, x0 - h))[0])
+                sec.append((op - om) / (2 * h))
+            fd[leaf] = np.stack(sec)  # [steps, T, obs]
+        t_checks = time.perf_counter() - t0
+        summary = dict(variant=name, steps=a.steps, t_end=float(times[-1]), dt=dt, n_fluid=scene.config.n_fluid,
+                       compile_s=round(t_compile, 1), forward_s=round(t_fwd, 2), checks_s=round(t_checks, 1),
+                       runup_end=float(obs0[-1, 2]), wedge_s_end=float(obs0[-1, 0]))
+        ok_frac = {}
+        for leaf in leaves:
+            for k, on in enumerate(OBS):
+                verd = [classify(ad[leaf][t, k], STEPS, fd[leaf][:, t, k]) for t in range(len(times))]
+                late = times >= 0.25
+                ok_frac[f"{on}|{leaf}"] = round(float(np.mean([v == "ok" for v, l in zip(verd, late) if l])), 3)
+                for tr in (float(s) for s in a.report_times.split(",")):
+                    t = int(np.argmin(np.abs(times - tr)))
+                    emit(dict(variant=name, leaf=leaf, obs=on, t=round(float(times[t]), 4), value=float(obs0[t, k]),
+                              ad=float(ad[leaf][t, k]), fd={f"{r:.0e}": float(fd[leaf][i, t, k]) for i, r in enumerate(STEPS)},
+                              verdict=verd[t]), a.out)
+        summary["ok_fraction_after_0.25s"] = ok_frac
+        emit(summary, a.out)
+
+
+if __name__ == "__main__":
+    main()
