@@ -160,7 +160,8 @@ def _exchange(P: Particles, blocks, params: Params, config: Config):
             face = jnp.where(better, f, face)
         if face_blend > 0:  # a soft maximum over the faces (smooth round the edges)
             tau = face_blend * cp.interaction_distance
-            S = jnp.where(fmask[None, :], jnp.stack(s_faces, axis=1), -jnp.inf) / tau  # [nf, F]
+            # masked faces get a constant -inf after the division (-inf / tau would carry a NaN tangent)
+            S = jnp.where(fmask[None, :], jnp.stack(s_faces, axis=1) / tau, -jnp.inf)  # [nf, F]
             s = tau * jax.nn.logsumexp(S, axis=1)
             n = jax.nn.softmax(S, axis=1) @ normals
             n = n / safe_norm(n)[:, None]
