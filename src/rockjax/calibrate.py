@@ -18,6 +18,10 @@ This module owns the user-facing gradient entry points and the calibration loop:
   compile serves gradient checks, calibration and every initial state of the same shapes;
 * leaf addressing by path strings ``"blocks.density[0]"``, ``"blocks.friction_angle"``,
   ``"fluid.c0"`` (``get_leaf`` / ``set_leaf``), used by ``calibrate`` and ``rockjax.ensembles``;
+* ``smooth_config(config)``: the same scene with the smooth physics settings (the blocks'
+  ``SmoothPenaltyCoulomb``; the penalty coupling's smooth onset and face blend), for losses over a
+  whole event: their gradients then hold at the scale a calibration moves much longer
+  (``rockjax.gradcheck``; RESULTS.md "Gradients over the full event");
 * ``calibrate(loss, params0, fields)``: fit the chosen scalar leaves with optax L-BFGS (default)
   or Adam, in log space (each field is ``value = start * exp(u)``, so fields of very different
   magnitudes -- a density of 2500 kg/m^3 and a friction angle of 0.3 rad -- are equally scaled
@@ -44,7 +48,7 @@ from .step import prime as _prime
 from .types import Config, Params, State
 
 __all__ = [
-    "get_leaf", "set_leaf", "final_state", "observed", "make_loss", "trajectory_loss", "relative_misfit",
+    "smooth_config", "get_leaf", "set_leaf", "final_state", "observed", "make_loss", "trajectory_loss", "relative_misfit",
     "CalibrationResult", "calibrate",
 ]
 
@@ -56,6 +60,33 @@ def _parse(path: str):
     if not m:
         raise ValueError(f"leaf path {path!r} is not of the form 'a.b.c' or 'a.b.c[i]' (e.g. 'blocks.density[0]')")
     return m.group(1).split("."), (None if m.group(2) is None else int(m.group(2)))
+
+
+def smooth_config(config: Config, *, law=None, onset: float = 0.5, face_blend: float = 0.1) -> Config:
+    """``config`` with the smooth physics settings for gradients over a whole event.
+
+    * blocks: ``law`` (default ``blocks.laws.SmoothPenaltyCoulomb()`` at its default widths)
+      instead of the sharp ``PenaltyCoulomb``;
+    * the seed's penalty coupling (``Coupling.PENALTY`` or a ``coupling.Penalty``):
+      ``Penalty(onset=onset, face_blend=face_blend)`` (fractions of the interaction distance).
+      Other couplings are kept as they are.
+
+    The forward results stay within the closed-form checks' tolerances (tests/blocks/test_physics.py
+    runs the incline, sticking and restitution with the smooth law); the compiled program is a
+    new one (the choices are static).
+    """
+    import dataclasses
+
+    from .blocks.laws import SmoothPenaltyCoulomb
+    from .coupling.penalty import Penalty
+
+    changes = {}
+    if config.blocks is not None:
+        changes["blocks"] = dataclasses.replace(config.blocks, law=SmoothPenaltyCoulomb() if law is None else law)
+    method = config.coupling_method
+    if type(method) is Penalty:  # the seed's penalty (not BoundaryIntegral, whose penalty only guards)
+        changes["coupling"] = Penalty(onset=onset, face_blend=face_blend)
+    return config.replace(**changes)
 
 
 def get_leaf(tree, path: str):
