@@ -6,7 +6,8 @@ particles; seed Eq 22 penalty coupling; joint water on), float64, ``--steps`` st
 1056 = 0.80 s: the wedge in the water and the wave on the beach).
 
 Variants (``--variants``): ``sharp`` (the defaults), ``law`` (``blocks.laws.SmoothPenaltyCoulomb``
-at its default widths), ``coupling`` (``coupling.Penalty(onset=0.5, face_blend=0.1)``), ``both``.
+at its default widths), ``coupling`` (``coupling.Penalty(onset=0.5, face_blend=0.1)``), ``both``
+(``calibrate.smooth_config``), and any of them with ``-nojw`` (joint water off).
 Per variant, observations after every block of 8 steps: the wedge's down-slope coordinate, the
 free-surface elevation at x = 0.30 m, and the smooth run-up on the far beach. Their derivatives
 w.r.t. each leaf (``--leaves``: density, friction angle, artificial viscosity alpha) come from one
@@ -57,7 +58,13 @@ def wedge(dx: float):
 
 
 def variant(scene, name: str):
+    """The scene's config for variant ``name``: ``sharp`` / ``law`` / ``coupling`` / ``both``, with
+    ``-nojw``: joint water off (the joint-water patch is the polygon of the pair's near points, and
+    it gains or loses area at once when a point enters or leaves the aperture)."""
     cfg = scene.config
+    if name.endswith("-nojw"):
+        name = name[:-5]
+        cfg = cfg.replace(blocks=dataclasses.replace(cfg.blocks, joint_water=False))
     law = SmoothPenaltyCoulomb() if name in ("law", "both") else cfg.blocks.law
     cpl = penalty.Penalty(onset=0.5, face_blend=0.1) if name in ("coupling", "both") else cfg.coupling
     return cfg.replace(blocks=dataclasses.replace(cfg.blocks, law=law), coupling=cpl)
