@@ -1,7 +1,7 @@
 """The gradient of an ensemble-smoothed objective over the full wedge event (issue 44, item 4).
 
-Scene and smooth settings as ``smoothness_ab.py`` (variant ``both``: ``SmoothPenaltyCoulomb`` and
-``Penalty(onset=0.5, face_blend=0.1)``), float64, ``--steps`` (default 1056 = 0.80 s). The
+Scene and smooth settings as ``smoothness_ab.py`` (variant ``smooth``: ``calibrate.smooth_config``;
+the first records were taken with ``law+coupling``, before the joint-water fade), float64, ``--steps`` (default 1056 = 0.80 s). The
 objective is an observation at the end (``--obs``: the smooth run-up on the far beach, or the
 wedge's down-slope coordinate), averaged over ``--members`` initial states whose wedge velocity
 is perturbed by ``--sigma`` m/s (``ensembles.perturbed(..., {"blocks.v[0]": sigma})``).
@@ -25,7 +25,6 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
-import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 from rockjax.calibrate import get_leaf, observed, set_leaf  # noqa: E402
@@ -44,7 +43,7 @@ def main(argv=None):
     ap.add_argument("--members", type=int, default=8)
     ap.add_argument("--sigma", type=float, default=1e-3)
     ap.add_argument("--obs", default="smooth_runup", choices=OBS)
-    ap.add_argument("--variant", default="both")
+    ap.add_argument("--variant", default="smooth")
     ap.add_argument("--leaves", default="blocks.density[0],blocks.friction_angle")
     ap.add_argument("--out", default=None)
     a = ap.parse_args(argv)

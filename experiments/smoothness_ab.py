@@ -5,9 +5,11 @@ degree slope, front at the shoreline, 0.2 m of water, 0.4 m flat, a 30 degree be
 particles; seed Eq 22 penalty coupling; joint water on), float64, ``--steps`` steps (default
 1056 = 0.80 s: the wedge in the water and the wave on the beach).
 
-Variants (``--variants``): ``sharp`` (the defaults), ``law`` (``blocks.laws.SmoothPenaltyCoulomb``
-at its default widths), ``coupling`` (``coupling.Penalty(onset=0.5, face_blend=0.1)``), ``both``
-(``calibrate.smooth_config``), and any of them with ``-nojw`` (joint water off).
+Variants (``--variants``, see ``variant``): ``sharp`` (the defaults), ``law``
+(``blocks.laws.SmoothPenaltyCoulomb`` at its default widths), ``coupling``
+(``coupling.Penalty(onset=0.5, face_blend=0.1)``), ``law+coupling``, ``smooth``
+(``calibrate.smooth_config``: both and the joint-water patch's fading corners), ``+nojw``: joint
+water off.
 Per variant, observations after every block of 8 steps: the wedge's down-slope coordinate, the
 free-surface elevation at x = 0.30 m, and the smooth run-up on the far beach. Their derivatives
 w.r.t. each leaf (``--leaves``: density, friction angle, artificial viscosity alpha) come from one
@@ -19,7 +21,7 @@ Output: JSON lines (``--out``), one per variant x leaf x observable at each of `
 (AD, secants, verdict), and one summary per variant (the fraction of "ok" over all times after
 the wedge reaches the water, per observable and leaf; timings).
 
-    .venv/bin/python experiments/smoothness_ab.py [--steps 1056] [--variants sharp,law,coupling,both]
+    .venv/bin/python experiments/smoothness_ab.py [--steps 1056] [--variants sharp,law,coupling,law+coupling,smooth]
 """
 
 from __future__ import annotations
@@ -40,7 +42,7 @@ import numpy as np  # noqa: E402
 
 from rockjax import Coupling, Status, scenes  # noqa: E402
 from rockjax.blocks import SmoothPenaltyCoulomb  # noqa: E402
-from rockjax.calibrate import get_leaf, observed, set_leaf  # noqa: E402
+from rockjax.calibrate import get_leaf, observed, set_leaf, smooth_config  # noqa: E402
 from rockjax.coupling import penalty  # noqa: E402
 from rockjax.gradcheck import classify  # noqa: E402
 from rockjax.observables import gauge_elevation, smooth_runup  # noqa: E402
@@ -58,16 +60,27 @@ def wedge(dx: float):
 
 
 def variant(scene, name: str):
-    """The scene's config for variant ``name``: ``sharp`` / ``law`` / ``coupling`` / ``both``, with
-    ``-nojw``: joint water off (the joint-water patch is the polygon of the pair's near points, and
-    it gains or loses area at once when a point enters or leaves the aperture)."""
+    """The scene's config for variant ``name``: ``sharp`` (the defaults), ``smooth``
+    (``calibrate.smooth_config``), or ``+``-joined parts: ``law`` (``SmoothPenaltyCoulomb``),
+    ``coupling`` (``Penalty(onset=0.5, face_blend=0.1)``), ``jwfade`` (``joint_fade_points``),
+    ``nojw`` (joint water off); ``smooth`` may be a part too (``smooth+nojw``)."""
     cfg = scene.config
-    if name.endswith("-nojw"):
-        name = name[:-5]
-        cfg = cfg.replace(blocks=dataclasses.replace(cfg.blocks, joint_water=False))
-    law = SmoothPenaltyCoulomb() if name in ("law", "both") else cfg.blocks.law
-    cpl = penalty.Penalty(onset=0.5, face_blend=0.1) if name in ("coupling", "both") else cfg.coupling
-    return cfg.replace(blocks=dataclasses.replace(cfg.blocks, law=law), coupling=cpl)
+    parts = set() if name == "sharp" else set(name.split("+"))
+    if "smooth" in parts:
+        cfg = smooth_config(cfg)
+        parts.discard("smooth")
+    unknown = parts - {"law", "coupling", "jwfade", "nojw"}
+    if unknown:
+        raise ValueError(f"variant {name!r}: unknown parts {sorted(unknown)}")
+    blocks = cfg.blocks
+    if "law" in parts:
+        blocks = dataclasses.replace(blocks, law=SmoothPenaltyCoulomb())
+    if "jwfade" in parts:
+        blocks = dataclasses.replace(blocks, joint_fade_points=True)
+    if "nojw" in parts:
+        blocks = dataclasses.replace(blocks, joint_water=False)
+    cpl = penalty.Penalty(onset=0.5, face_blend=0.1) if "coupling" in parts else cfg.coupling
+    return cfg.replace(blocks=blocks, coupling=cpl)
 
 
 def observer(scene, config):
@@ -94,7 +107,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dx", type=float, default=0.05)
     ap.add_argument("--steps", type=int, default=1056)
-    ap.add_argument("--variants", default="sharp,law,coupling,both")
+    ap.add_argument("--variants", default="sharp,law,coupling,law+coupling,smooth")
     ap.add_argument("--leaves", default="blocks.density[0],blocks.friction_angle,fluid.alpha")
     ap.add_argument("--report-times", default="0.2,0.3,0.4,0.55,0.8")
     ap.add_argument("--out", default=None)

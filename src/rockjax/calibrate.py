@@ -66,7 +66,8 @@ def smooth_config(config: Config, *, law=None, onset: float = 0.5, face_blend: f
     """``config`` with the smooth physics settings for gradients over a whole event.
 
     * blocks: ``law`` (default ``blocks.laws.SmoothPenaltyCoulomb()`` at its default widths)
-      instead of the sharp ``PenaltyCoulomb``;
+      instead of the sharp ``PenaltyCoulomb``, and ``joint_fade_points`` (the joint-water patch's
+      corners fade in and out of the aperture);
     * the seed's penalty coupling (``Coupling.PENALTY`` or a ``coupling.Penalty``):
       ``Penalty(onset=onset, face_blend=face_blend)`` (fractions of the interaction distance).
       Other couplings are kept as they are.
@@ -82,7 +83,8 @@ def smooth_config(config: Config, *, law=None, onset: float = 0.5, face_blend: f
 
     changes = {}
     if config.blocks is not None:
-        changes["blocks"] = dataclasses.replace(config.blocks, law=SmoothPenaltyCoulomb() if law is None else law)
+        changes["blocks"] = dataclasses.replace(config.blocks, law=SmoothPenaltyCoulomb() if law is None else law,
+                                                joint_fade_points=True)
     method = config.coupling_method
     if type(method) is Penalty:  # the seed's penalty (not BoundaryIntegral, whose penalty only guards)
         changes["coupling"] = Penalty(onset=onset, face_blend=face_blend)

@@ -231,3 +231,57 @@ def test_patch_points_gathered_and_overflow_flagged(x64):
     assert Status.JOINT_PATCH_OVERFLOW & Status.growable()
     cfg3, _, _ = make_blocks(shapes, joint_patch_points=3, **kw)
     assert grown_by_driver(cfg3, Status.JOINT_PATCH_OVERFLOW).joint_patch_points == 6
+
+
+@pytest.mark.parametrize("fade", [False, True], ids=["sharp", "fade_points"])
+def test_joint_patch_as_a_corner_leaves_the_aperture(x64, fade):
+    """A 0.2 m cube on a 0.3 m cube's top, tilted about y so that one bottom edge touches (1e-5 m
+    deep) and the opposite edge lifts by s = 0.2 sin(theta); aperture 0.01 m (near points within
+    ap / 2 = 5 mm). As s crosses 5 mm the far corners leave the joint: the patch (the hull of the
+    near points) collapses from the whole bottom face to the touching edge. Without
+    ``joint_fade_points`` the load drops from ~rho g (z_w - 0.3) 0.04 m^2 to 0 at once; with it
+    the far corners move in from the patch's weighted centre as s goes from ap/4 to ap/2, so the
+    load falls continuously to 0, and up to s = ap/4 it equals the sharp patch's load."""
+    ap, level = 0.01, 1.0
+
+    def load(s):
+        th = np.arcsin(s / 0.2)
+        c, sn = np.cos(th), np.sin(th)
+        R = np.array([[c, 0.0, sn], [0.0, 1.0, 0.0], [-sn, 0.0, c]])
+        corners = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1)]) @ R.T
+        pos = np.array([[0.0, 0.0, 0.15], [0.0, 0.0, 0.3 - 1e-5 - corners[:, 2].min()]])
+        cfg, par, st = make_blocks([box(0.3, 0.3, 0.3), box(0.2, 0.2, 0.2)], positions=pos,
+                                   orientations=np.array([[1.0, 0, 0, 0], [np.cos(th / 2), 0.0, np.sin(th / 2), 0.0]]),
+                                   motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6, joint_water=True,
+                                   joint_water_level=level, joint_aperture=ap)
+        cfg = dataclasses.replace(cfg, joint_fade_points=fade)
+        _, _, _, status, info = _contact_forces(st, par, cfg, dt=1e-4, gravity=GRAV, return_info=True)
+        assert int(status) == 0
+        return float(np.abs(np.asarray(info["joint_water_force"]).sum(0)[2]))
+
+    full = RHO * G * (level - 0.3) * 0.04
+    s_edge = 0.5 * ap + 1e-5  # the far corners are s - 1e-5 above the face
+    below, above = load(s_edge - 1e-6), load(s_edge + 1e-6)
+    assert above < 1e-9 * full  # the far corners have left: the patch is the touching edge
+    if not fade:
+        assert below > 0.9 * full  # the whole face, then nothing
+    else:
+        assert below < 1e-3 * full  # continuous: the far corners have moved in to the centre
+        loads = np.array([load(s) for s in np.linspace(0.25 * ap + 1e-5, s_edge, 11)])
+        assert np.all(np.diff(loads) <= 1e-9 * full)  # falls monotonically over the band
+        np.testing.assert_allclose(load(0.2 * ap), load_sharp_at(0.2 * ap, ap, level), rtol=1e-9)  # weights 1
+
+
+def load_sharp_at(s, ap, level):
+    """The sharp patch's load at lift s (helper of the test above, same construction)."""
+    th = np.arcsin(s / 0.2)
+    c, sn = np.cos(th), np.sin(th)
+    R = np.array([[c, 0.0, sn], [0.0, 1.0, 0.0], [-sn, 0.0, c]])
+    corners = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1)]) @ R.T
+    pos = np.array([[0.0, 0.0, 0.15], [0.0, 0.0, 0.3 - 1e-5 - corners[:, 2].min()]])
+    cfg, par, st = make_blocks([box(0.3, 0.3, 0.3), box(0.2, 0.2, 0.2)], positions=pos,
+                               orientations=np.array([[1.0, 0, 0, 0], [np.cos(th / 2), 0.0, np.sin(th / 2), 0.0]]),
+                               motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6, joint_water=True,
+                               joint_water_level=level, joint_aperture=ap)
+    _, _, _, _, info = _contact_forces(st, par, cfg, dt=1e-4, gravity=GRAV, return_info=True)
+    return float(np.abs(np.asarray(info["joint_water_force"]).sum(0)[2]))

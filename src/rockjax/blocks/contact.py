@@ -59,7 +59,7 @@ from ..types import Status
 from .broadphase import candidate_pairs, pairs_are_static
 from .fcp import _first_k, fcp_pair, gap_along, sat_start, vertex_directions
 from .joint_water import joint_water_load
-from .laws import ContactLaw, ContactPoint
+from .laws import smoothstep, ContactLaw, ContactPoint
 from .model import (BlockConfig, BlockParams, BlockShape, BlockState, ContactHistory, Motion, block_mass,
                     world_planes, world_vertices)
 from .rotation import project, safe_norm, tied_max, tied_min
@@ -443,7 +443,22 @@ def _joint_water_loads(b: _Bodies, params: BlockParams, config: BlockConfig, gra
         near_overflow = jnp.zeros_like(mask)
     n_wact = jnp.sum(wact.astype(jnp.int32), 1)
     patch = _active_slots(wact, config.joint_patch_points)  # overflow flagged by contact_forces
-    wpts, wact = _take_slots(wpts, patch), _take_slots(wact, patch)
+    if ap > 0 and config.joint_fade_points:
+        # closeness of each near point: a vertex's exit distance from the other block grown by
+        # ap/2 runs from 0 (leaving the joint, ap/2 away) to ap/2 (touching); an edge crossing's
+        # overlap from -ap (leaving) to 0 (touching), mapped onto the same scale. Weight 0 -> 1
+        # between closeness 0 and ap/4; the point moves in from the weighted centre, so the hull's
+        # area is continuous as points come and go
+        vertex = near.feature < 2 * b.X.shape[1]
+        close = jnp.where(vertex, near.depth, 0.5 * (near.depth + ap))
+        wdep = _take_slots(jnp.where(wact, close, 0.0), patch)
+        wpts, wact = _take_slots(wpts, patch), _take_slots(wact, patch)
+        wgt = jnp.where(wact, smoothstep(wdep / (0.25 * ap)), 0.0)  # [S, C]
+        tot = jnp.sum(wgt, 1, keepdims=True)
+        ctr = jnp.sum(wgt[..., None] * wpts, 1) / jnp.where(tot > 0, tot, 1.0)  # [S, 3]
+        wpts = ctr[:, None, :] + wgt[..., None] * (wpts - ctr[:, None, :])
+    else:
+        wpts, wact = _take_slots(wpts, patch), _take_slots(wact, patch)
     Fw, fw, mw = jax.vmap(lambda *a: joint_water_load(
         *a, level=params.joint_water_level, density=params.joint_water_density, gravity=gravity))(
             wpts, wact, n, t1, t2)

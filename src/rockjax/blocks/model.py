@@ -232,6 +232,11 @@ class BlockConfig:
         (``BlockParams.joint_water_level``; module ``joint_water``). Off: nothing is traced.
       joint_aperture: m, faces closer than this form a joint (its load fades out as the gap opens
         from 0 to this); 0: only the penetrating contact's patch, with no fade.
+      joint_fade_points: with ``joint_aperture`` > 0, each point of the near patch also fades in:
+        it moves from the patch's weighted centre to its place as it closes from ``aperture / 2``
+        to ``aperture / 4`` (``smoothstep`` weights), so the patch's area and load are continuous
+        when a point enters or leaves the joint (otherwise they jump: a new corner adds its area at
+        once). For gradients over whole events (``calibrate.smooth_config``). Default off.
       tuning: :class:`BlockTuning`, the settings that change only speed.
       law: the contact law (``laws.ContactLaw``; default ``laws.PenaltyCoulomb()``): the maths of
         the force at a contact point, a static choice; its constants are ``BlockParams``.
@@ -257,6 +262,7 @@ class BlockConfig:
     penetration_limit: float = 0.1
     joint_water: bool = False
     joint_aperture: float = 0.0
+    joint_fade_points: bool = False
     tuning: BlockTuning = BlockTuning()
     law: ContactLaw = PenaltyCoulomb()
 
