@@ -133,3 +133,32 @@ def test_classify_and_shared_value_and_grad(x64):
 
     rep = gradcheck(lambda p: p.a ** 3 + p.b, point(), ["a", "b"], value_and_grad=vg, jit=False)
     assert rep.ok and len(calls) == 1
+
+
+def test_secant_gradient_calibrates_through_a_sawtooth(x64):
+    """``calibrate.secant_value_and_grad``: on ``(a - 2)^2`` plus a sawtooth of period and height
+    1e-4 (local slope -1 everywhere), the exact gradient ``2 (a - 2) - 1`` leads a calibration
+    astray (towards its zero a = 2.5), the secant over 1e-2 a sees the parabola's slope and finds a = 2 to within the
+    sawtooth's period."""
+    from rockjax.calibrate import calibrate, secant_value_and_grad
+
+    def loss(p):
+        saw = jax.lax.stop_gradient(jnp.floor(p.a / 1e-4) * 1e-4) - p.a
+        return (p.a - 2.0) ** 2 + saw + p.b * 0.0
+
+    vg = secant_value_and_grad(loss, ["a"], rel_step=1e-2)
+    p0 = P(jnp.asarray(2.6), jnp.asarray(1.0))
+    value, g = vg(p0)
+    h = 1e-2 * abs(float(p0.a))
+    # the secant, to within one sawtooth step (1e-4 / 2h: where x +- h falls on a step is round-off)
+    fd = (float(loss(P(p0.a + h, p0.b))) - float(loss(P(p0.a - h, p0.b)))) / (2 * h)
+    assert float(g.a) == pytest.approx(fd, abs=1e-4 / (2 * h) * 1.01)
+    assert float(g.b) == 0.0 and float(value) == pytest.approx(float(loss(p0)))
+    assert float(g.a) == pytest.approx(1.2, abs=0.01)  # 2 (a - 2); the exact derivative is 0.2
+    exact = calibrate(loss, p0, ["a"], max_iter=40)
+    secant = calibrate(None, p0, ["a"], value_and_grad=vg, max_iter=40)
+    # the exact gradient points to its own zero a = 2.5; its line search stalls on the sawtooth's steps
+    assert abs(exact.values["a"] - 2.0) > 0.05
+    assert abs(secant.values["a"] - 2.0) < 2e-3
+    with pytest.raises(ValueError, match="rel_step"):
+        secant_value_and_grad(loss, ["a"], rel_step=0.0)
