@@ -139,7 +139,7 @@ def test_secant_gradient_calibrates_through_a_sawtooth(x64):
     """``calibrate.secant_value_and_grad``: on ``(a - 2)^2`` plus a sawtooth of period and height
     1e-4 (local slope -1 everywhere), the exact gradient ``2 (a - 2) - 1`` leads a calibration
     astray (towards its zero a = 2.5), the secant over 1e-2 a sees the parabola's slope and finds a = 2 to within the
-    sawtooth's period."""
+    loss's noise floor (|a - 2| = 0.01, where the parabola falls under the sawtooth's height)."""
     from rockjax.calibrate import calibrate, secant_value_and_grad
 
     def loss(p):
@@ -159,6 +159,7 @@ def test_secant_gradient_calibrates_through_a_sawtooth(x64):
     secant = calibrate(None, p0, ["a"], value_and_grad=vg, max_iter=40)
     # the exact gradient points to its own zero a = 2.5; its line search stalls on the sawtooth's steps
     assert abs(exact.values["a"] - 2.0) > 0.05
-    assert abs(secant.values["a"] - 2.0) < 2e-3
+    # to within the loss's noise floor: below |a - 2| = 0.01 the parabola (1e-4) is under the sawtooth's height
+    assert abs(secant.values["a"] - 2.0) < 1e-2
     with pytest.raises(ValueError, match="rel_step"):
         secant_value_and_grad(loss, ["a"], rel_step=0.0)
