@@ -233,6 +233,24 @@ def test_patch_points_gathered_and_overflow_flagged(x64):
     assert grown_by_driver(cfg3, Status.JOINT_PATCH_OVERFLOW).joint_patch_points == 6
 
 
+def _tilted_cube_load(s, ap, level, fade):
+    """The joint-water load [N] of a 0.2 m cube on a 0.3 m cube's top, tilted about y so that one
+    bottom edge is 1e-5 m deep and the opposite one lifted by ``s`` [m] (aperture ``ap``)."""
+    th = np.arcsin(s / 0.2)
+    c, sn = np.cos(th), np.sin(th)
+    R = np.array([[c, 0.0, sn], [0.0, 1.0, 0.0], [-sn, 0.0, c]])
+    corners = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1)]) @ R.T
+    pos = np.array([[0.0, 0.0, 0.15], [0.0, 0.0, 0.3 - 1e-5 - corners[:, 2].min()]])
+    cfg, par, st = make_blocks([box(0.3, 0.3, 0.3), box(0.2, 0.2, 0.2)], positions=pos,
+                               orientations=np.array([[1.0, 0, 0, 0], [np.cos(th / 2), 0.0, np.sin(th / 2), 0.0]]),
+                               motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6, joint_water=True,
+                               joint_water_level=level, joint_aperture=ap)
+    cfg = dataclasses.replace(cfg, joint_fade_points=fade)
+    _, _, _, status, info = _contact_forces(st, par, cfg, dt=1e-4, gravity=GRAV, return_info=True)
+    assert int(status) == 0
+    return float(np.abs(np.asarray(info["joint_water_force"]).sum(0)[2]))
+
+
 @pytest.mark.parametrize("fade", [False, True], ids=["sharp", "fade_points"])
 def test_joint_patch_as_a_corner_leaves_the_aperture(x64, fade):
     """A 0.2 m cube on a 0.3 m cube's top, tilted about y so that one bottom edge touches (1e-5 m
@@ -245,19 +263,7 @@ def test_joint_patch_as_a_corner_leaves_the_aperture(x64, fade):
     ap, level = 0.01, 1.0
 
     def load(s):
-        th = np.arcsin(s / 0.2)
-        c, sn = np.cos(th), np.sin(th)
-        R = np.array([[c, 0.0, sn], [0.0, 1.0, 0.0], [-sn, 0.0, c]])
-        corners = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1)]) @ R.T
-        pos = np.array([[0.0, 0.0, 0.15], [0.0, 0.0, 0.3 - 1e-5 - corners[:, 2].min()]])
-        cfg, par, st = make_blocks([box(0.3, 0.3, 0.3), box(0.2, 0.2, 0.2)], positions=pos,
-                                   orientations=np.array([[1.0, 0, 0, 0], [np.cos(th / 2), 0.0, np.sin(th / 2), 0.0]]),
-                                   motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6, joint_water=True,
-                                   joint_water_level=level, joint_aperture=ap)
-        cfg = dataclasses.replace(cfg, joint_fade_points=fade)
-        _, _, _, status, info = _contact_forces(st, par, cfg, dt=1e-4, gravity=GRAV, return_info=True)
-        assert int(status) == 0
-        return float(np.abs(np.asarray(info["joint_water_force"]).sum(0)[2]))
+        return _tilted_cube_load(s, ap, level, fade)
 
     full = RHO * G * (level - 0.3) * 0.04
     s_edge = 0.5 * ap + 1e-5  # the far corners are s - 1e-5 above the face
@@ -269,19 +275,5 @@ def test_joint_patch_as_a_corner_leaves_the_aperture(x64, fade):
         assert below < 1e-3 * full  # continuous: the far corners have moved in to the centre
         loads = np.array([load(s) for s in np.linspace(0.25 * ap + 1e-5, s_edge, 11)])
         assert np.all(np.diff(loads) <= 1e-9 * full)  # falls monotonically over the band
-        np.testing.assert_allclose(load(0.2 * ap), load_sharp_at(0.2 * ap, ap, level), rtol=1e-9)  # weights 1
-
-
-def load_sharp_at(s, ap, level):
-    """The sharp patch's load at lift s (helper of the test above, same construction)."""
-    th = np.arcsin(s / 0.2)
-    c, sn = np.cos(th), np.sin(th)
-    R = np.array([[c, 0.0, sn], [0.0, 1.0, 0.0], [-sn, 0.0, c]])
-    corners = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1)]) @ R.T
-    pos = np.array([[0.0, 0.0, 0.15], [0.0, 0.0, 0.3 - 1e-5 - corners[:, 2].min()]])
-    cfg, par, st = make_blocks([box(0.3, 0.3, 0.3), box(0.2, 0.2, 0.2)], positions=pos,
-                               orientations=np.array([[1.0, 0, 0, 0], [np.cos(th / 2), 0.0, np.sin(th / 2), 0.0]]),
-                               motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6, joint_water=True,
-                               joint_water_level=level, joint_aperture=ap)
-    _, _, _, _, info = _contact_forces(st, par, cfg, dt=1e-4, gravity=GRAV, return_info=True)
-    return float(np.abs(np.asarray(info["joint_water_force"]).sum(0)[2]))
+        # weights 1 up to s = ap / 4: the sharp patch's load
+        np.testing.assert_allclose(load(0.2 * ap), _tilted_cube_load(0.2 * ap, ap, level, False), rtol=1e-9)
