@@ -1100,7 +1100,8 @@ def sec_full_event(doc: Doc):
               "1e-2 ... 1e-6, after every block of 8 steps; `gradcheck.classify` says **ok** when the secants at "
               "1e-3 and 1e-4 (the distance a calibration moves) agree with each other and with AD within 2 %. "
               "Variants: `sharp` (the defaults), `law` (`SmoothPenaltyCoulomb`), `coupling` (`Penalty(onset=0.5, "
-              "face_blend=0.1)`), `both` (`calibrate.smooth_config`); `-nojw`: joint water off. Below: the share of "
+              "face_blend=0.1)`), `law+coupling`, `smooth` (`calibrate.smooth_config`: both and the joint-water patch's "
+              "fading corners), `widelaw+...`: the law at 10x its default widths and a 30 % stick/slip band. Below: the share of "
               "the times after 0.25 s (the wedge in the water) whose verdict is ok, then the verdicts at chosen times.")
         summ = {}
         for r in recs:
@@ -1125,7 +1126,7 @@ def sec_full_event(doc: Doc):
         doc.p(table(["variant", "leaf"] + [f"t = {t:.2f}" for t in times], rows))
     sm = doc.records("smoothed_gradient.jsonl", "python experiments/smoothed_gradient.py --out experiments/results/smoothed_gradient.jsonl")
     if sm:
-        doc.p("The ensemble-smoothed objective (`smoothed_gradient.py`, variant `both`, 0.80 s): the observation at the end "
+        doc.p("The ensemble-smoothed objective (`smoothed_gradient.py`, variant `law+coupling`, 0.80 s): the observation at the end "
               "averaged over members whose initial wedge velocity is perturbed by sigma; mean AD gradient +- its "
               "standard error vs central secants of the smoothed objective (common random numbers), and one member's "
               "exact gradient vs its own secants.")
@@ -1137,6 +1138,23 @@ def sec_full_event(doc: Doc):
                         + [f"{r['member0_ad']:.4g}"] + [f"{f1[k]:.4g}" for k in ("1e-02", "1e-03", "1e-04")])
         doc.p(table(["obs", "leaf", "members", "sigma m/s", "mean AD", "secant 1e-2", "1e-3", "1e-4",
                      "member AD", "member 1e-2", "1e-3", "1e-4"], rows))
+    cal = doc.records("calibrate_full_event.jsonl", "python experiments/calibrate_full_event.py --out "
+                                                    "experiments/results/calibrate_full_event.jsonl [--noise 0.05]")
+    if cal:
+        doc.p("Calibration over the full event (`calibrate_full_event.py`, `smooth_config`, 0.80 s): density and friction "
+              "angle from the wedge position, the gauge at 0.30 m and the smooth run-up (132 records each), starting "
+              "+20 % / -20 % off, L-BFGS on `secant_value_and_grad` (central secants over 1 % of each field: 5 forward "
+              "runs per evaluation). With noise (std = a fraction of each signal's RMS), the Gauss-Newton posterior "
+              "standard deviation from the secant Jacobian at the fit.")
+        rows = []
+        for r in cal:
+            e = r["rel_error"]
+            sd = r.get("posterior_sd_rel") or {}
+            rows.append([r["truth"], r["noise"], f"{e['blocks.density[0]']:+.2%}", f"{e['blocks.friction_angle']:+.2%}",
+                         (f"{sd['blocks.density[0]']:.2%} / {sd['blocks.friction_angle']:.2%}" if sd else "-"),
+                         r["n_iter"], r["n_evals"], r["converged"], r["wall_s"]])
+        doc.p(table(["truth (kg/m^3 : deg)", "noise", "density error", "friction error", "posterior sd (rel.)",
+                     "iterations", "evaluations", "converged", "wall s"], rows))
 
 
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,

@@ -62,19 +62,22 @@ def wedge(dx: float):
 def variant(scene, name: str):
     """The scene's config for variant ``name``: ``sharp`` (the defaults), ``smooth``
     (``calibrate.smooth_config``), or ``+``-joined parts: ``law`` (``SmoothPenaltyCoulomb``),
-    ``coupling`` (``Penalty(onset=0.5, face_blend=0.1)``), ``jwfade`` (``joint_fade_points``),
+    ``widelaw`` (the law with 10x its default widths and a 30 % slip band), ``coupling``
+    (``Penalty(onset=0.5, face_blend=0.1)``), ``jwfade`` (``joint_fade_points``),
     ``nojw`` (joint water off); ``smooth`` may be a part too (``smooth+nojw``)."""
     cfg = scene.config
     parts = set() if name == "sharp" else set(name.split("+"))
     if "smooth" in parts:
         cfg = smooth_config(cfg)
         parts.discard("smooth")
-    unknown = parts - {"law", "coupling", "jwfade", "nojw"}
+    unknown = parts - {"law", "widelaw", "coupling", "jwfade", "nojw"}
     if unknown:
         raise ValueError(f"variant {name!r}: unknown parts {sorted(unknown)}")
     blocks = cfg.blocks
     if "law" in parts:
         blocks = dataclasses.replace(blocks, law=SmoothPenaltyCoulomb())
+    if "widelaw" in parts:  # 10x the default widths, a 30 % stick/slip band
+        blocks = dataclasses.replace(blocks, law=SmoothPenaltyCoulomb(onset_depth=1e-4, closing_speed=1e-2, slip_band=0.3))
     if "jwfade" in parts:
         blocks = dataclasses.replace(blocks, joint_fade_points=True)
     if "nojw" in parts:
