@@ -63,14 +63,15 @@ def variant(scene, name: str):
     """The scene's config for variant ``name``: ``sharp`` (the defaults), ``smooth``
     (``calibrate.smooth_config``), or ``+``-joined parts: ``law`` (``SmoothPenaltyCoulomb``),
     ``widelaw`` (the law with 10x its default widths and a 30 % slip band), ``coupling``
-    (``Penalty(onset=0.5, face_blend=0.1)``), ``jwfade`` (``joint_fade_points``),
+    (``Penalty(onset=0.5, face_blend=0.1)``), ``wideblend`` (``face_blend=0.5``), ``jwfade``
+    (``joint_fade_points``),
     ``nojw`` (joint water off); ``smooth`` may be a part too (``smooth+nojw``)."""
     cfg = scene.config
     parts = set() if name == "sharp" else set(name.split("+"))
     if "smooth" in parts:
         cfg = smooth_config(cfg)
         parts.discard("smooth")
-    unknown = parts - {"law", "widelaw", "coupling", "jwfade", "nojw"}
+    unknown = parts - {"law", "widelaw", "coupling", "wideblend", "jwfade", "nojw"}
     if unknown:
         raise ValueError(f"variant {name!r}: unknown parts {sorted(unknown)}")
     blocks = cfg.blocks
@@ -83,6 +84,8 @@ def variant(scene, name: str):
     if "nojw" in parts:
         blocks = dataclasses.replace(blocks, joint_water=False)
     cpl = penalty.Penalty(onset=0.5, face_blend=0.1) if "coupling" in parts else cfg.coupling
+    if "wideblend" in parts:  # the faces blended over half the penalty layer
+        cpl = penalty.Penalty(onset=0.5, face_blend=0.5)
     return cfg.replace(blocks=blocks, coupling=cpl)
 
 
