@@ -65,13 +65,14 @@ def variant(scene, name: str):
     ``widelaw`` (the law with 10x its default widths and a 30 % slip band), ``coupling``
     (``Penalty(onset=0.5, face_blend=0.1)``), ``wideblend`` (``face_blend=0.5``), ``jwfade``
     (``joint_fade_points``),
-    ``nojw`` (joint water off); ``smooth`` may be a part too (``smooth+nojw``)."""
+    ``nojw`` (joint water off), ``rebuild1`` (lists rebuilt at every step, observed every step);
+    ``smooth`` may be a part too (``smooth+nojw``)."""
     cfg = scene.config
     parts = set() if name == "sharp" else set(name.split("+"))
     if "smooth" in parts:
         cfg = smooth_config(cfg)
         parts.discard("smooth")
-    unknown = parts - {"law", "widelaw", "coupling", "wideblend", "jwfade", "nojw"}
+    unknown = parts - {"law", "widelaw", "coupling", "wideblend", "jwfade", "nojw", "rebuild1"}
     if unknown:
         raise ValueError(f"variant {name!r}: unknown parts {sorted(unknown)}")
     blocks = cfg.blocks
@@ -83,6 +84,8 @@ def variant(scene, name: str):
         blocks = dataclasses.replace(blocks, joint_fade_points=True)
     if "nojw" in parts:
         blocks = dataclasses.replace(blocks, joint_water=False)
+    if "rebuild1" in parts:  # neighbour lists rebuilt before every step (another summation order)
+        cfg = cfg.replace(rebuild_every=1)
     cpl = penalty.Penalty(onset=0.5, face_blend=0.1) if "coupling" in parts else cfg.coupling
     if "wideblend" in parts:  # the faces blended over half the penalty layer
         cpl = penalty.Penalty(onset=0.5, face_blend=0.5)
@@ -121,7 +124,6 @@ def main(argv=None):
     scene = wedge(a.dx)
     leaves = a.leaves.split(",")
     dt = float(scene.config.dt)
-    every = scene.config.rebuild_every
     for name in a.variants.split(","):
         cfg = variant(scene, name)
         observe = observer(scene, cfg)
@@ -141,7 +143,7 @@ def main(argv=None):
         t0 = time.perf_counter()
         fwd(scene.params)[0].block_until_ready()
         t_fwd = time.perf_counter() - t0
-        times = dt * every * np.arange(1, obs0.shape[0] + 1)
+        times = dt * cfg.rebuild_every * np.arange(1, obs0.shape[0] + 1)
         # the wedge reaches the water (its front at the shoreline) at once; the wave on the beach later
         ad, fd = {}, {}
         jvp = jax.jit(lambda p, tp: jax.jvp(lambda q: run(q)[0], (p,), (tp,))[1])
