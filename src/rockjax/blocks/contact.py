@@ -59,7 +59,7 @@ from ..types import Status
 from .broadphase import candidate_pairs, pairs_are_static
 from .fcp import _first_k, fcp_pair, gap_along, sat_start, vertex_directions
 from .joint_water import joint_water_load
-from .laws import smoothstep, ContactLaw, ContactPoint
+from .laws import ContactLaw, ContactPoint, smoothstep
 from .model import (BlockConfig, BlockParams, BlockShape, BlockState, ContactHistory, Motion, block_mass,
                     world_planes, world_vertices)
 from .rotation import project, safe_norm, tied_max, tied_min

@@ -39,7 +39,7 @@ if TYPE_CHECKING:  # model imports this module (BlockConfig.law)
     from .model import BlockParams
 
 __all__ = ["ContactLaw", "ContactPoint", "LawResult", "PenaltyCoulomb", "SmoothPenaltyCoulomb", "smooth_ramp",
-           "smoothstep"]
+           "smoothstep", "smoothstep_integral"]
 
 
 class ContactPoint(NamedTuple):
@@ -150,12 +150,12 @@ def smooth_ramp(x, width):
 
 def smoothstep(t):
     """``3 t^2 - 2 t^3`` on [0, 1], 0 below and 1 above: a C1 switch (its integral
-    :func:`_smoothstep_integral` is C2)."""
+    :func:`smoothstep_integral` is C2)."""
     t = jnp.clip(t, 0.0, 1.0)
     return t * t * (3.0 - 2.0 * t)
 
 
-def _smoothstep_integral(t):
+def smoothstep_integral(t):
     """The integral of :func:`smoothstep` from 0 to ``t >= 0``: ``t^3 - t^4 / 2`` on [0, 1], then
     ``t - 1/2``."""
     tc = jnp.clip(t, 0.0, 1.0)
@@ -218,7 +218,7 @@ class SmoothPenaltyCoulomb(PenaltyCoulomb):
         ct = 2.0 * zeta * jnp.sqrt(ks * point.reduced_mass / point.pair_points) * w
         nn, vrel = point.normal, point.velocity
         vn = jnp.sum(vrel * nn, -1)
-        fn = kn * self.onset_depth * _smoothstep_integral(point.depth / self.onset_depth) \
+        fn = kn * self.onset_depth * smoothstep_integral(point.depth / self.onset_depth) \
             + cn * smooth_ramp(-vn, self.closing_speed)
         vt = vrel - vn[..., None] * nn
         u = history

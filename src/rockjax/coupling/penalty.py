@@ -33,7 +33,7 @@ import dataclasses
 import jax
 import jax.numpy as jnp
 
-from ..blocks.laws import _smoothstep_integral, smooth_ramp, smoothstep
+from ..blocks.laws import smooth_ramp, smoothstep, smoothstep_integral
 from ..blocks.rotation import quat_matrix, safe_norm, tied_max
 from ..sph.kernels import plane_integrals
 from ..types import Config, CouplingState, Kind, Params, Particles
@@ -173,7 +173,7 @@ def _exchange(P: Particles, blocks, params: Params, config: Config):
         if onset > 0:
             ds = onset * cp.interaction_distance
             t = d / ds
-            spring = cp.penalty_stiffness * ds * _smoothstep_integral(t)
+            spring = cp.penalty_stiffness * ds * smoothstep_integral(t)
             w = smoothstep(t)  # the no-pull corner's width is ramped in too: zero force at d = 0
             mag = smooth_ramp(spring - cp.penalty_damping * vn * w, 0.25 * cp.penalty_stiffness * ds * w)
             mag = jnp.where(fluid & (d > 0), mag, 0.0)
