@@ -7,7 +7,7 @@ every 8 steps, from a truth of 2800 kg/m^3 and 10 degrees; the fit starts 20 % o
 8 degrees) and runs ``calibrate.calibrate`` (L-BFGS in log space) on the mean squared relative
 misfit with ``calibrate.secant_value_and_grad`` (the slope over 1 % of each field: over this
 horizon the exact gradient is local, see ``test_full_event.py``). Both fields must come within 2 %
-of the truth. Slow: ~7 min on 2 cores (the fit takes ~30 evaluations of 5 forward runs each).
+of the truth. Slow: ~5 min on 2 cores (the fit takes ~30 evaluations of 5 forward runs each).
 """
 
 from __future__ import annotations
