@@ -1122,6 +1122,14 @@ def sec_full_event(doc: Doc):
             for l in leaves:
                 by = {(r["obs"], r["t"]): r["verdict"] for r in pts if r["variant"] == v and r["leaf"] == l}
                 rows.append([v, l] + [" ".join(by.get((o, t), "-")[:5] for o in obs) for t in times])
+        deep = doc.records("smoothness_ab_deep.jsonl", "python experiments/smoothness_ab.py --variants smooth "
+                                                       "--water-depth 0.4 --out experiments/results/smoothness_ab_deep.jsonl")
+        if deep:
+            doc.p("The same wedge in 0.4 m of water (the slope's toe 0.62 m down the slope, beyond the wedge's reach "
+                  "in 0.8 s; `--water-depth 0.4`):")
+            rows = [[r["variant"]] + [r["ok_fraction_after_0.25s"].get(f"{o}|{l}", float("nan")) for l in leaves for o in obs]
+                    + [r.get("forward_s")] for r in deep if "ok_fraction_after_0.25s" in r]
+            doc.p(table(head, rows))
         doc.p("Verdicts (wedge position, gauge, run-up) per time [s]:")
         doc.p(table(["variant", "leaf"] + [f"t = {t:.2f}" for t in times], rows))
     sm = doc.records("smoothed_gradient.jsonl", "python experiments/smoothed_gradient.py --out experiments/results/smoothed_gradient.jsonl")
