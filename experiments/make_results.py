@@ -1101,7 +1101,9 @@ def sec_full_event(doc: Doc):
               "1e-3 and 1e-4 (the distance a calibration moves) agree with each other and with AD within 2 %. "
               "Variants: `sharp` (the defaults), `law` (`SmoothPenaltyCoulomb`), `coupling` (`Penalty(onset=0.5, "
               "face_blend=0.1)`), `law+coupling`, `smooth` (`calibrate.smooth_config`: both and the joint-water patch's "
-              "fading corners), `widelaw+...`: the law at 10x its default widths and a 30 % stick/slip band. Below: the share of "
+              "fading corners), `widelaw+...`: the law at 10x its default widths and a 30 % stick/slip band; "
+              "`+laminar`: `sph.Laminar` viscosity (no approach switch; nu = alpha h c0 / 10), its fluid leaf nu "
+              "in the alpha columns. Below: the share of "
               "the times after 0.25 s (the wedge in the water) whose verdict is ok, then the verdicts at chosen times.")
         summ = {}
         for r in recs:
@@ -1112,7 +1114,8 @@ def sec_full_event(doc: Doc):
         rows = []
         for v, r in summ.items():
             fr = r["ok_fraction_after_0.25s"]
-            rows.append([v] + [fr.get(f"{o}|{l}", float("nan")) for l in leaves for o in obs] + [r.get("forward_s")])
+            rows.append([v] + [fr.get(f"{o}|{l}", fr.get(f"{o}|fluid.nu", float("nan")) if l == "fluid.alpha" else float("nan"))
+                               for l in leaves for o in obs] + [r.get("forward_s")])
         head = ["variant"] + [f"{o} / {l.split('.')[-1].replace('[0]', '')}" for l in leaves for o in obs] + ["forward s"]
         doc.p(table(head, rows))
         pts = [r for r in recs if "verdict" in r]

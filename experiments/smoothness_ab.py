@@ -46,6 +46,7 @@ from rockjax.calibrate import get_leaf, observed, set_leaf, smooth_config  # noq
 from rockjax.coupling import penalty  # noqa: E402
 from rockjax.gradcheck import classify  # noqa: E402
 from rockjax.observables import gauge_elevation, smooth_runup  # noqa: E402
+from rockjax.sph import Laminar  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
 from jsonl_out import emit  # noqa: E402
@@ -65,14 +66,15 @@ def variant(scene, name: str):
     ``widelaw`` (the law with 10x its default widths and a 30 % slip band), ``coupling``
     (``Penalty(onset=0.5, face_blend=0.1)``), ``wideblend`` (``face_blend=0.5``), ``jwfade``
     (``joint_fade_points``),
-    ``nojw`` (joint water off), ``rebuild1`` (lists rebuilt at every step, observed every step);
+    ``nojw`` (joint water off), ``laminar`` (``sph.Laminar`` viscosity, no approach switch, with
+    ``laminar_params``), ``rebuild1`` (lists rebuilt at every step, observed every step);
     ``smooth`` may be a part too (``smooth+nojw``)."""
     cfg = scene.config
     parts = set() if name == "sharp" else set(name.split("+"))
     if "smooth" in parts:
         cfg = smooth_config(cfg)
         parts.discard("smooth")
-    unknown = parts - {"law", "widelaw", "coupling", "wideblend", "jwfade", "nojw", "rebuild1"}
+    unknown = parts - {"law", "widelaw", "coupling", "wideblend", "jwfade", "nojw", "rebuild1", "laminar"}
     if unknown:
         raise ValueError(f"variant {name!r}: unknown parts {sorted(unknown)}")
     blocks = cfg.blocks
@@ -84,12 +86,20 @@ def variant(scene, name: str):
         blocks = dataclasses.replace(blocks, joint_fade_points=True)
     if "nojw" in parts:
         blocks = dataclasses.replace(blocks, joint_water=False)
+    if "laminar" in parts:  # no approach switch: Laminar viscosity instead of Monaghan's (params: laminar_params)
+        cfg = cfg.replace(scheme=dataclasses.replace(cfg.scheme, viscosity=Laminar()))
     if "rebuild1" in parts:  # neighbour lists rebuilt before every step (another summation order)
         cfg = cfg.replace(rebuild_every=1)
     cpl = penalty.Penalty(onset=0.5, face_blend=0.1) if "coupling" in parts else cfg.coupling
     if "wideblend" in parts:  # the faces blended over half the penalty layer
         cpl = penalty.Penalty(onset=0.5, face_blend=0.5)
     return cfg.replace(blocks=blocks, coupling=cpl)
+
+
+def laminar_params(params):
+    """``params`` with the laminar viscosity that matches Monaghan's in 3D: nu = alpha h c0 / 10."""
+    f = params.fluid
+    return params.replace(fluid=f.replace(nu=f.alpha * f.h * f.c0 / 10.0))
 
 
 def observer(scene, config):
@@ -128,6 +138,7 @@ def main(argv=None):
     dt = float(scene.config.dt)
     for name in a.variants.split(","):
         cfg = variant(scene, name)
+        params = laminar_params(scene.params) if "laminar" in name.split("+") else scene.params
         observe = observer(scene, cfg)
 
         def run(p):
@@ -136,14 +147,14 @@ def main(argv=None):
 
         fwd = jax.jit(run)
         t0 = time.perf_counter()
-        obs0, status = fwd(scene.params)
+        obs0, status = fwd(params)
         obs0 = np.asarray(obs0)
         t_compile = time.perf_counter() - t0
         if int(status):
             emit(dict(variant=name, error=Status.describe(int(status))), a.out)
             continue
         t0 = time.perf_counter()
-        fwd(scene.params)[0].block_until_ready()
+        fwd(params)[0].block_until_ready()
         t_fwd = time.perf_counter() - t0
         times = dt * cfg.rebuild_every * np.arange(1, obs0.shape[0] + 1)
         # the wedge reaches the water (its front at the shoreline) at once; the wave on the beach later
@@ -151,15 +162,15 @@ def main(argv=None):
         jvp = jax.jit(lambda p, tp: jax.jvp(lambda q: run(q)[0], (p,), (tp,))[1])
         t0 = time.perf_counter()
         for leaf in leaves:
-            x0 = float(get_leaf(scene.params, leaf))
-            tang = jax.tree_util.tree_map(jnp.zeros_like, scene.params)
+            x0 = float(get_leaf(params, leaf))
+            tang = jax.tree_util.tree_map(jnp.zeros_like, params)
             tang = set_leaf(tang, leaf, 1.0)
-            ad[leaf] = np.asarray(jvp(scene.params, tang))
+            ad[leaf] = np.asarray(jvp(params, tang))
             sec = []
             for r in STEPS:
                 h = r * abs(x0)
-                op = np.asarray(fwd(set_leaf(scene.params, leaf, x0 + h))[0])
-                om = np.asarray(fwd(set_leaf(scene.params, leaf, x0 - h))[0])
+                op = np.asarray(fwd(set_leaf(params, leaf, x0 + h))[0])
+                om = np.asarray(fwd(set_leaf(params, leaf, x0 - h))[0])
                 sec.append((op - om) / (2 * h))
             fd[leaf] = np.stack(sec)  # [steps, T, obs]
         t_checks = time.perf_counter() - t0
