@@ -45,7 +45,7 @@ from rockjax.blocks import SmoothPenaltyCoulomb  # noqa: E402
 from rockjax.calibrate import get_leaf, observed, set_leaf, smooth_config  # noqa: E402
 from rockjax.coupling import penalty  # noqa: E402
 from rockjax.gradcheck import classify  # noqa: E402
-from rockjax.observables import gauge_elevation, smooth_runup  # noqa: E402
+from rockjax.observables import gauge_elevation, runup_kwargs, smooth_runup  # noqa: E402
 from rockjax.sph import Laminar  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
@@ -110,10 +110,7 @@ def observer(scene, config):
     x = 0.30
     pts = jnp.asarray([[x, y]])
     bottom = jnp.asarray([max(-x * math.tan(th), -meta["water_depth"])])
-    sl = meta.runup_slope
-    dx = float(meta.dx)
-    kw = dict(slope_point=jnp.asarray(sl.point), slope_normal=jnp.asarray(sl.normal), band=2 * dx,
-              still_level=meta["still_level"], x_min=sl.x_min, temperature=0.25 * dx)
+    kw = dict(runup_kwargs(meta), temperature=0.25 * float(meta.dx))  # band 2 dx on the far beach
 
     def observe(state, params):
         eta = gauge_elevation(state, params, config, pts, bottom_z=bottom, still_level=meta["still_level"])

@@ -80,8 +80,6 @@ def smooth_config(config: Config, *, law=None, onset: float = 0.5, face_blend: f
     runs the incline, sticking and restitution with the smooth law); the compiled program is a
     new one (the choices are static).
     """
-    import dataclasses
-
     from .blocks.laws import SmoothPenaltyCoulomb
     from .coupling.penalty import Penalty
 

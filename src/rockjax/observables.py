@@ -13,7 +13,7 @@ from jax.scipy.special import logsumexp
 from .sph.neighbours import min_image
 from .types import Config, Kind, Params, State
 
-__all__ = ["surge_front", "smooth_max", "energies", "probe_pressure", "fluid_mass", "gauge_elevation",
+__all__ = ["surge_front", "smooth_max", "energies", "probe_pressure", "fluid_mass", "gauge_elevation", "runup_kwargs",
            "runup", "smooth_runup", "block_energies", "impact_velocity", "scene_observer"]
 
 
@@ -158,6 +158,22 @@ def impact_velocity(times, block_x, block_v, *, block, still_level, bottom_offse
     return np.asarray(block_v)[hit[0], block]
 
 
+def runup_kwargs(meta, *, band: float | None = None) -> dict:
+    """The keywords of ``runup`` / ``smooth_runup`` for a scene's run-up slope (``meta.runup_slope``):
+    ``slope_point``, ``slope_normal``, ``band`` (default 2 dx), ``still_level``, ``x_min``.
+    ``meta``: a ``scenes.SceneMeta`` or a dict of its keys; a ValueError if it has no run-up slope."""
+    from .scenes.meta import SceneMeta
+
+    meta = SceneMeta.from_dict(meta)
+    sl = meta.runup_slope
+    if sl is None:
+        raise ValueError(f"runup_kwargs: scene {meta.name!r} has no run-up slope (meta.runup_slope is None)")
+    dx = float(meta.dx or 0.0)
+    return dict(slope_point=jnp.asarray(sl.point), slope_normal=jnp.asarray(sl.normal),
+                band=2.0 * dx if band is None else band,
+                still_level=float(meta.still_level if meta.still_level is not None else 0.0), x_min=sl.x_min)
+
+
 def scene_observer(meta, *, band: float | None = None, temperature: float | None = None):
     """``observe(state, params, config) -> dict`` for ``simulate(observe=...)`` from a scene's meta:
     ``gauges`` [M] m (free-surface elevation at ``meta["gauges"]``), ``runup`` (hard) and
@@ -171,7 +187,6 @@ def scene_observer(meta, *, band: float | None = None, temperature: float | None
     meta = SceneMeta.from_dict(meta)
     dx = float(meta.dx or 0.0)
     still = float(meta.still_level if meta.still_level is not None else 0.0)
-    band = 2.0 * dx if band is None else band
     temperature = 0.25 * dx if temperature is None else temperature
 
     def observe(state: State, params: Params, config: Config) -> dict:
@@ -180,10 +195,8 @@ def scene_observer(meta, *, band: float | None = None, temperature: float | None
         if g is not None and state.particles is not None:
             out["gauges"] = gauge_elevation(state, params, config, jnp.asarray(g.xy),
                                             bottom_z=jnp.asarray(g.bottom_z), still_level=still)
-        sl = meta.runup_slope
-        if sl is not None and state.particles is not None:
-            kw = dict(slope_point=jnp.asarray(sl.point), slope_normal=jnp.asarray(sl.normal), band=band,
-                      still_level=still, x_min=sl.x_min)
+        if meta.runup_slope is not None and state.particles is not None:
+            kw = runup_kwargs(meta, band=band)
             out["runup"] = runup(state, **kw)
             out["smooth_runup"] = smooth_runup(state, temperature=temperature, **kw)
         if state.particles is not None and params.fluid is not None:

@@ -26,7 +26,7 @@ import gradcases as gc
 from rockjax import Status
 from rockjax.calibrate import smooth_config, trajectory_loss
 from rockjax.gradcheck import gradcheck
-from rockjax.observables import gauge_elevation, smooth_runup
+from rockjax.observables import gauge_elevation, runup_kwargs, smooth_runup
 
 pytestmark = pytest.mark.slow
 
@@ -41,9 +41,7 @@ def observer(scene, config):
     s_dir = jnp.asarray([math.cos(th), 0.0, -math.sin(th)])
     pts = jnp.asarray([[0.30, 0.5 * meta["flume_width"]]])
     bottom = jnp.asarray([max(-0.30 * math.tan(th), -meta["water_depth"])])
-    sl, dx = meta.runup_slope, float(meta.dx)
-    kw = dict(slope_point=jnp.asarray(sl.point), slope_normal=jnp.asarray(sl.normal), band=2 * dx,
-              still_level=meta["still_level"], x_min=sl.x_min, temperature=0.25 * dx)
+    kw = dict(runup_kwargs(meta), temperature=0.25 * float(meta.dx))  # band 2 dx on the far beach
 
     def observe(state, params):
         eta = gauge_elevation(state, params, config, pts, bottom_z=bottom, still_level=meta["still_level"])
