@@ -14,6 +14,8 @@
   ``PenaltyCoulomb`` (penalty springs, closing-only damping, Coulomb cap on a shear spring),
   ``SmoothPenaltyCoulomb`` (the same with its switches spread over stated widths: smooth gradients).
 * ``joint_water``: hydrostatic water pressure on contact patches (``BlockConfig.joint_water``).
+* ``paths``: prescribed motions of any kind (tables, flaps; wave-maker signals: regular, Goring
+  solitary, focused group, JONSWAP, CSV records; Biesel transfer functions).
 * ``integrate``: ``advance_blocks``, one central-difference step (seed Eq 5-7).
 
 This package does not import ``rockjax.sph``.
@@ -21,6 +23,7 @@ This package does not import ``rockjax.sph``.
 
 from .contact import contact_forces
 from .geometry import ConvexPolyhedron, PackedBlocks, box, pack, prism, slab, slope, wedge
+from . import paths
 from .integrate import advance_blocks, prescribed_motion
 from .laws import ContactLaw, ContactPoint, LawResult, PenaltyCoulomb, SmoothPenaltyCoulomb
 from .model import (

@@ -12,7 +12,8 @@ explicit) and ``q_{n+1} = exp(dt omega_{n+1/2} / 2) q_n`` renormalised.
 
 FIXED blocks never move and are not integrated (only the DYNAMIC ones are gathered).  PRESCRIBED
 blocks follow ``x(t) = x0 + dir S/2 sin(2 pi t / T)`` with ``v = dx/dt`` at the mid-step, orientation
-``q0``.
+``q0``, or their ``BlockConfig.paths`` entry (``paths``: tables, flaps) scaled by
+``S / BlockConfig.path_stroke``: the pose at t + dt, its rate at the mid-step.
 """
 
 from __future__ import annotations
@@ -99,6 +100,15 @@ def advance_blocks(state: BlockState, params: BlockParams, config: BlockConfig, 
         unstable = dt > stable_dt_jax(config, params, state.shape, safety=1.0)
         status = status | jnp.where(unstable, Status.BLOCK_UNSTABLE.value, 0).astype(jnp.int32)
     pre = config.prescribed
+    paths = config.paths or (None,) * config.n_blocks
+    on_path = [i for i in pre if paths[i] is not None]
+    pre = [i for i in pre if paths[i] is None]
+    if on_path:
+        scale = params.stroke / config.path_stroke
+        for i in on_path:
+            xi, qi, _, _ = paths[i].motion(t + dt, state.x0[i], state.q0[i], scale)
+            _, _, vi, wi = paths[i].motion(t + 0.5 * dt, state.x0[i], state.q0[i], scale)
+            x, q, v, om = x.at[i].set(xi), q.at[i].set(qi), v.at[i].set(vi), om.at[i].set(wi)
     if pre:
         p = jnp.asarray(pre)
         xp, _ = prescribed_motion(config, params, state.x0, t + dt)

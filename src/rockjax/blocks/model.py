@@ -221,6 +221,11 @@ class BlockConfig:
       prescribed_direction: per block unit 3-vector of the piston motion ((0,0,0) if not PRESCRIBED).
       prescribed_ramp: s, soft start of the piston: the amplitude grows as
         ``(1 - cos(pi t / ramp)) / 2`` over the first ``ramp`` seconds (0: full amplitude at t = 0).
+      paths: per block a ``paths.Path`` (a table translation, a flap rotation) or None; a
+        PRESCRIBED block with a path follows it instead of the sinusoid of
+        ``prescribed_direction`` (empty: no paths).
+      path_stroke: m, the stroke the paths were built with: each path's motion is scaled by
+        ``BlockParams.stroke / path_stroke`` (differentiable w.r.t. the stroke).
       aabb_margin: m, added to every AABB half-size in the broad phase.
       grid_cell_size: m, uniform-grid cell (GRID; default 1.5 x median block size, seed section 2).
       large_blocks: blocks bigger than a grid cell (GRID): tested against every block directly.
@@ -254,6 +259,8 @@ class BlockConfig:
     broadphase: Broadphase = Broadphase.ALL_PAIRS
     prescribed_direction: tuple = ()
     prescribed_ramp: float = 0.0
+    paths: tuple = ()
+    path_stroke: float = 0.0
     aabb_margin: float = 0.0
     grid_cell_size: float = 1.0
     large_blocks: tuple = ()
@@ -280,6 +287,17 @@ class BlockConfig:
             raise ValueError("BlockConfig.fcp_iterations must be >= 0")
         if not (self.prescribed_ramp >= 0.0 and math.isfinite(self.prescribed_ramp)):
             raise ValueError(f"BlockConfig.prescribed_ramp must be a finite time >= 0 s (got {self.prescribed_ramp})")
+        if self.paths:
+            from .paths import Path
+
+            if len(self.paths) != self.n_blocks:
+                raise ValueError(f"BlockConfig.paths has {len(self.paths)} entries, n_blocks={self.n_blocks}")
+            for i, (p, m) in enumerate(zip(self.paths, self.motion)):
+                if p is not None and (not isinstance(p, Path) or m != Motion.PRESCRIBED):
+                    raise ValueError(f"BlockConfig.paths[{i}] must be None or a rockjax.blocks.paths.Path of a "
+                                     f"PRESCRIBED block (got {type(p).__name__} for a {m.name} block)")
+            if not (math.isfinite(self.path_stroke) and self.path_stroke > 0):
+                raise ValueError(f"BlockConfig.path_stroke must be > 0 m with paths (got {self.path_stroke})")
 
     def replace(self, **changes) -> "BlockConfig":
         """This config with some fields changed (``dataclasses.replace``)."""
@@ -759,6 +777,7 @@ class BlockGeometry:
       stroke: m, piston stroke S.  period: s, piston period T.
       prescribed_direction: [B,3] unit piston directions (0 for blocks that are not PRESCRIBED).
       prescribed_ramp: s, soft start of the piston.
+      paths: per block a ``paths.Path`` or None (empty: none); see :class:`BlockConfig`.
     """
 
     polyhedra: tuple
@@ -772,6 +791,7 @@ class BlockGeometry:
     period: float
     prescribed_direction: np.ndarray
     prescribed_ramp: float
+    paths: tuple = ()
 
     @property
     def n_blocks(self) -> int:
@@ -803,7 +823,7 @@ class BlockGeometry:
 
 def block_geometry(polyhedra: Sequence[ConvexPolyhedron], *, positions=None, motion=None, orientations=None,
                    velocities=None, omegas=None, stroke: float = 0.0, period: float = 1.0,
-                   prescribed_direction=None, prescribed_ramp: float = 0.0) -> BlockGeometry:
+                   prescribed_direction=None, prescribed_ramp: float = 0.0, paths=None) -> BlockGeometry:
     """Validate the blocks' shapes, poses and motions (``make_blocks``' arguments of those names,
     same defaults and messages) into a :class:`BlockGeometry`."""
     polys = list(polyhedra)
@@ -839,19 +859,51 @@ def block_geometry(polyhedra: Sequence[ConvexPolyhedron], *, positions=None, mot
     T = _scalar("period", period, lo=0.0, lo_open=True, unit="s")
     ramp = _scalar("prescribed_ramp", prescribed_ramp, lo=0.0, unit="s")
     pdir = np.zeros((B, 3))
-    if any(m == Motion.PRESCRIBED for m in motion):
+    path_list = _paths(paths, motion)
+    if path_list:
+        given = [p.stroke for p in path_list if p is not None]
+        S = given[0] if stroke in (None, 0.0) else S
+    pending = [i for i, m in enumerate(motion) if m == Motion.PRESCRIBED and not (path_list and path_list[i] is not None)]
+    if pending:
         if prescribed_direction is None:
             raise ValueError("prescribed_direction: [B,3] piston directions are needed for PRESCRIBED blocks")
         pd = _per_block("prescribed_direction", prescribed_direction, B, 3)
-        for i, m in enumerate(motion):
-            if m == Motion.PRESCRIBED:
-                n = np.linalg.norm(pd[i])
-                if n == 0:
-                    raise ValueError(f"prescribed_direction[{i}] is zero for a PRESCRIBED block")
-                pdir[i] = pd[i] / n
+        for i in pending:
+            n = np.linalg.norm(pd[i])
+            if n == 0:
+                raise ValueError(f"prescribed_direction[{i}] is zero for a PRESCRIBED block")
+            pdir[i] = pd[i] / n
     return BlockGeometry(polyhedra=tuple(polys), packed=packed, motion=motion, positions=pos, orientations=ori,
                          velocities=vel, omegas=om, stroke=S, period=T, prescribed_direction=pdir,
-                         prescribed_ramp=ramp)
+                         prescribed_ramp=ramp, paths=tuple(path_list))
+
+
+def _paths(paths, motion) -> list:
+    """``make_blocks(paths=...)`` as a per-block list (empty: none): one ``Path`` for the only
+    PRESCRIBED block, or one entry (a Path or None) per block."""
+    from .paths import Path
+
+    if paths is None:
+        return []
+    B = len(motion)
+    pre = [i for i, m in enumerate(motion) if m == Motion.PRESCRIBED]
+    if isinstance(paths, Path):
+        if len(pre) != 1:
+            raise ValueError(f"paths: one Path was given for {len(pre)} PRESCRIBED blocks; give a list with "
+                             f"one entry (a Path or None) per block")
+        out = [None] * B
+        out[pre[0]] = paths
+        return out
+    out = list(paths)
+    if len(out) != B:
+        raise ValueError(f"paths: {len(out)} entries for {B} blocks; give one (a Path or None) per block")
+    for i, p in enumerate(out):
+        if p is not None and not isinstance(p, Path):
+            raise ValueError(f"paths[{i}] is {type(p).__name__}; give a rockjax.blocks.paths.Path (Table, Flap) "
+                             f"or None")
+        if p is not None and motion[i] != Motion.PRESCRIBED:
+            raise ValueError(f"paths[{i}]: block {i} is {motion[i].name}; only PRESCRIBED blocks follow a path")
+    return out if any(p is not None for p in out) else []
 
 
 def _contact_fields(geometry: BlockGeometry, *, fcp_iterations, broadphase, aabb_margin, grid_cell_size,
@@ -990,6 +1042,8 @@ def block_config(geometry: BlockGeometry, contact: dict, capacities: BlockCapaci
         capacities=capacities,
         prescribed_direction=tuple(tuple(float(c) for c in r) for r in geometry.prescribed_direction),
         prescribed_ramp=float(geometry.prescribed_ramp),
+        paths=tuple(geometry.paths),
+        path_stroke=next((p.stroke for p in geometry.paths if p is not None), 0.0),
         tuning=tuning,
         **contact,
     )
@@ -1015,6 +1069,7 @@ def make_blocks(
     period: float = 1.0,
     prescribed_direction=None,
     prescribed_ramp: float = 0.0,
+    paths=None,
     pair_capacity: Optional[int] = None,
     fcp_iterations: int = 2,
     broadphase: Optional[Broadphase] = None,
@@ -1067,6 +1122,11 @@ def make_blocks(
       prescribed_direction: [B,3] piston directions (needed for PRESCRIBED blocks; normalised).
       prescribed_ramp: s, soft start of the piston (amplitude ramped up with a half cosine over
         this time; 0 = full amplitude from t = 0).
+      paths: motions of any kind for PRESCRIBED blocks (``rockjax.blocks.paths``: a ``Table`` or
+        ``Flap``, e.g. ``paths.solitary(...).piston()``): one Path for the only PRESCRIBED block,
+        or a list with one entry (Path or None) per block; a block with a path needs no
+        ``prescribed_direction``. ``stroke`` then defaults to the first path's stroke, and the
+        params' stroke scales every path (``BlockConfig.path_stroke``).
       pair_capacity: candidate-pair buffer; default all candidate pairs (ALL_PAIRS) or
         ``8 x n_dynamic + (#large blocks x B)`` (GRID).
       fcp_iterations: Fast Common Plane iterations per step (>= 0).
@@ -1092,7 +1152,8 @@ def make_blocks(
     """
     geometry = block_geometry(polyhedra, positions=positions, motion=motion, orientations=orientations,
                               velocities=velocities, omegas=omegas, stroke=stroke, period=period,
-                              prescribed_direction=prescribed_direction, prescribed_ramp=prescribed_ramp)
+                              prescribed_direction=prescribed_direction, prescribed_ramp=prescribed_ramp,
+                              paths=paths)
     material = BlockMaterial(density=density, friction_angle_deg=friction_angle_deg, cohesion=cohesion,
                              tensile_strength=tensile_strength, normal_stiffness=normal_stiffness,
                              shear_stiffness=shear_stiffness, penalty_modulus=penalty_modulus,
