@@ -31,31 +31,64 @@ KH, DEPTH, STROKE, FLAT = 1.0, 0.3, 0.04, 4.0
 GAUGES = [0.3, 0.6, 0.9, 1.2, 1.8]
 
 
+VARIANTS = {
+    "ramp2": "paddle ramped up over 2 periods (half cosine) instead of an impulsive start",
+    "settle": "lattice settled 3 s (scenes.settle) before the paddle starts",
+    "laminar": "sph.Laminar viscosity, nu = 1e-6 m^2/s (water) instead of Monaghan's artificial one",
+    "laminar_eq": "sph.Laminar viscosity with Monaghan's equivalent nu = alpha h c0 / 10",
+    "sps": "sph.LaminarSPS (nu = 1e-6 plus the Smagorinsky SPS stress)",
+    "cubic": "cubic spline kernel instead of Wendland C2",
+    "dynwalls": "sph.DynamicWalls instead of Adami walls",
+    "sponge": "a 1.2 m sponge (sph.Sponge, 10 1/s) before the beach",
+}
+
+
 def simulate(dx: float, coupling: str, t_end: float, npz: str, *, alpha=None, wall_viscosity=None,
-             h_factor: float = 1.5, diffusion: str = "fourtakas", stroke: float = STROKE) -> None:
+             h_factor: float = 1.5, diffusion: str = "fourtakas", stroke: float = STROKE, variant: str = "") -> None:
+    import dataclasses
+
     import jax.numpy as jnp
 
     import rockjax as rj
     from rockjax.observables import scene_observer
 
+    parts = set(filter(None, variant.split("+")))
+    unknown = parts - set(VARIANTS)
+    if unknown:
+        raise SystemExit(f"unknown variant parts {sorted(unknown)}; choose from {sorted(VARIANTS)}")
     T = linear_wave(KH, DEPTH)["period"]
     scene = rj.scenes.piston_wavemaker(dx=dx, stroke=stroke, period=T, water_depth=DEPTH, flat_length=FLAT,
                                        beach_slope=0.3, flume_width=(7 if h_factor <= 1.3 else 8) * dx,
                                        coupling=rj.Coupling(coupling),
-                                       gauge_x=GAUGES, h_factor=h_factor)
+                                       gauge_x=GAUGES, h_factor=h_factor, ramp_periods=2.0 if "ramp2" in parts else 0.0,
+                                       sponge_length=1.2 if "sponge" in parts else 0.0)
     scheme = scene.config.scheme.replace(diffusion=rj.sph.by_name("diffusion", diffusion))
+    if parts & {"laminar", "laminar_eq"}:
+        scheme = dataclasses.replace(scheme, viscosity=rj.sph.Laminar())
+    if "sps" in parts:
+        scheme = dataclasses.replace(scheme, viscosity=rj.sph.LaminarSPS())
+    if "cubic" in parts:
+        scheme = dataclasses.replace(scheme, kernel=rj.sph.CubicSpline())
+    if "dynwalls" in parts:
+        scheme = dataclasses.replace(scheme, walls=rj.sph.DynamicWalls())
     scene = scene.replace(config=scene.config.replace(scheme=scheme))
     fl = scene.params.fluid
     fl = fl.replace(alpha=fl.alpha if alpha is None else jnp.asarray(alpha, fl.alpha.dtype),
                     wall_viscosity=fl.wall_viscosity if wall_viscosity is None
                     else jnp.asarray(wall_viscosity, fl.alpha.dtype))
+    if parts & {"laminar", "sps"}:
+        fl = fl.replace(nu=jnp.asarray(1e-6, fl.nu.dtype))
+    if "laminar_eq" in parts:
+        fl = fl.replace(nu=fl.alpha * fl.h * fl.c0 / 10.0)
     scene = scene.replace(params=scene.params.replace(fluid=fl))
+    if "settle" in parts:
+        scene = rj.scenes.settle(scene, t_settle=3.0)
     t0 = time.perf_counter()
     res = rj.simulate(scene, t_end=t_end, frame_dt=T / 24, observe=scene_observer(scene.meta), progress=False)
     np.savez(npz, t=res.times, eta=res.observed["gauges"], T=T, gx=GAUGES, theory=piston_transfer(KH),
              wall=time.perf_counter() - t0, n=scene.config.n_fluid, dx=dx, coupling=coupling,
              load=os.getloadavg()[0], alpha=float(fl.alpha), wall_viscosity=float(fl.wall_viscosity),
-             h_factor=h_factor, diffusion=diffusion, stroke=stroke)
+             h_factor=h_factor, diffusion=diffusion, stroke=stroke, variant=variant)
 
 
 def analyse(npz: str, delays=(0, 1, 2)) -> dict:
@@ -95,6 +128,7 @@ def analyse(npz: str, delays=(0, 1, 2)) -> dict:
                 wall_viscosity=float(d["wall_viscosity"]) if "wall_viscosity" in d else 1.0,
                 h_factor=float(d["h_factor"]) if "h_factor" in d else 1.3,
                 diffusion=str(d["diffusion"]) if "diffusion" in d else "fourtakas",
+                variant=str(d["variant"]) if "variant" in d else "",
                 t_end=float(t[-1]), wall_s=float(d["wall"]), theory_H_over_S=theory, gauges=rows,
                 k_fit=k_fit, k_theory=KH / DEPTH)
 
@@ -112,6 +146,7 @@ def main():
     ap.add_argument("--h-factor", type=float, default=1.5, help="smoothing length / dx (the scene's default)")
     ap.add_argument("--stroke", type=float, default=STROKE, help="paddle stroke m")
     ap.add_argument("--diffusion", default="fourtakas", choices=rj.sph.names("diffusion"))
+    ap.add_argument("--variant", default="", help="'+'-joined parts: " + "; ".join(f"{k}: {v}" for k, v in VARIANTS.items()))
     ap.add_argument("--out", default=None, help="JSON-lines file the record is appended to "
                                                 "(default results/piston_decay.jsonl)")
     ap.add_argument("--from-npz", default=None, help="analyse a saved run instead of simulating")
@@ -120,7 +155,7 @@ def main():
     npz = a.from_npz
     if npz is None:
         simulate(a.dx, a.coupling, a.t_end, a.npz, alpha=a.alpha, wall_viscosity=a.wall_viscosity,
-                 h_factor=a.h_factor, diffusion=a.diffusion, stroke=a.stroke)
+                 h_factor=a.h_factor, diffusion=a.diffusion, stroke=a.stroke, variant=a.variant)
         npz = a.npz
     rec = analyse(npz)
     print(json.dumps(rec))

@@ -20,6 +20,7 @@ from .gradcheck import gradcheck
 from .driver import Result, SimulationError, simulate
 from .rollout import make_rollout, rollout
 from .scenes import Scene
+from .sph.absorbers import Sponge
 from .sph.schemes import WCSPH, SeedScheme
 from .step import make_step, prime
 from .tuning import Tuning
@@ -32,7 +33,7 @@ __all__ = [
     "__version__",
     "Config", "Capacities", "Params", "FluidParams", "State", "Particles", "NeighbourList", "GridSpec",
     "CouplingParams", "CouplingState",
-    "WCSPH", "SeedScheme", "Tuning", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
+    "WCSPH", "SeedScheme", "Sponge", "Tuning", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
     "make_step", "prime", "make_rollout", "rollout",
     "simulate", "Result", "SimulationError",
     "Scene", "scenes", "observables", "io", "sph", "blocks", "coupling", "calibrate", "ensembles", "gradcheck",

@@ -13,6 +13,8 @@ is never traced):
   fluid (``config.scheme``, ``sph.schemes``) and exchanges momentum with the blocks (the penalty of
   seed Eq 22, the boundary particles' pair forces, the wall term), storing the loads for the
   blocks' next step; with no coupling, the scheme's step alone;
+* absorbers (``config.absorbers``, ``sph.absorbers``): damping zones applied to the water after
+  the fluid step;
 * checks: non-finite values, particles off the grid, stale neighbour list, time step beyond the
   stability limit; each sets a ``Status`` bit for the host driver.
 
@@ -108,6 +110,8 @@ def advance(state: State, params: Params, config: Config) -> State:
     state = coupling.place(state, params, config)
     if config.n_fluid > 0:
         state = coupling.fluid_step(state, params, config)
+    for absorber in config.absorbers:
+        state = state.replace(particles=absorber.apply(state.particles, config.dt))
     state = state.replace(step=state.step + 1)
     return state.replace(status=state.status | check(state, params, config))
 

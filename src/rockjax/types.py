@@ -254,6 +254,8 @@ class Config:
             a rare artefact (the wedge: one particle trapped 0.34 dx inside the slope's toe).
             Ignored by the penalty coupling, like ``coupling_guard`` (there a guarded floor held a
             landing block 0.75 dx up on trapped water: ``coupling.penalty.guard_fixed``).
+        absorbers: damping zones for the water (``rockjax.sph.Sponge``: a sponge layer at a
+            flume's end), applied after each fluid step; empty (default): none, nothing traced.
 
     A scene with no particles (``n_fluid == n_wall == 0``, blocks only) has ``grid=None`` and
     traces no SPH code; a scene with ``blocks=None`` traces no block code.
@@ -275,6 +277,7 @@ class Config:
     coupling: Any = Coupling.NONE
     coupling_guard: bool = True
     guard_fixed: bool = False
+    absorbers: tuple = ()
 
     def __post_init__(self):
         # Host-side checks of the static description; scene builders catch most problems earlier.
@@ -300,6 +303,13 @@ class Config:
         if method.needs_continuity and not self.scheme.continuity:
             raise ValueError("Config.coupling BOUNDARY_INTEGRAL needs scheme WCSPH (a scheme with the continuity "
                              "equation, for which its wall term is written); use PENALTY or BOUNDARY_PARTICLES")
+        from .sph.absorbers import Absorber
+
+        if not isinstance(self.absorbers, tuple) or not all(isinstance(a, Absorber) for a in self.absorbers):
+            raise ValueError(f"Config.absorbers must be a tuple of absorbing zones (rockjax.sph.Sponge(...)), "
+                             f"got {self.absorbers!r}")
+        if self.absorbers and self.n_fluid == 0:
+            raise ValueError("Config.absorbers: the scene has no water to absorb; set absorbers=()")
         if not self.has_particles:
             return
         if self.grid is None:

@@ -6,7 +6,9 @@ that experiment as a periodic slab, ``dam_break_3d`` as a 3D tank with side wall
 ``front_error`` compares a simulated front with it. ``energy_history`` evaluates the total
 energy of every frame of a run (both schemes) for the closed-tank energy checks.
 ``piston_transfer``, ``linear_wave`` and ``wave_height`` are the piston wave-maker check: linear
-theory's H/S (tabulated), the dispersion relation, and the height of a recorded wave train.
+theory's H/S (tabulated), the dispersion relation, and the height of a recorded wave train;
+``reflection`` splits gauge records into incident and reflected waves (Mansard & Funke 1980);
+``solitary_profile`` and ``synolakis_runup`` are the solitary wave's closed forms.
 """
 
 from __future__ import annotations
@@ -17,7 +19,8 @@ import pathlib
 import numpy as np
 
 __all__ = ["data_dir", "martin_moyce_n2_2", "dam_break_2d", "dam_break_3d", "front_history", "front_error",
-           "energy_history", "piston_transfer", "linear_wave", "wave_height", "wave_phase"]
+           "energy_history", "piston_transfer", "linear_wave", "wave_height", "wave_phase", "reflection",
+           "synolakis_runup", "solitary_profile"]
 
 GRAVITY = 9.81
 
@@ -180,3 +183,58 @@ def wave_phase(t, eta, *, period: float, t_start: float, t_stop: float) -> float
     if c is None:
         return float("nan")
     return math.atan2(c[0], c[1])
+
+
+def reflection(t, eta, x, *, period: float, depth: float, t_start: float, t_stop: float, k: float | None = None,
+               g: float = GRAVITY) -> dict:
+    """Incident and reflected regular waves from records at several gauges (Mansard & Funke 1980,
+    least squares at the first harmonic).
+
+    Each gauge's first harmonic ``Z_p`` (complex amplitude: ``eta_1 = Re(Z_p e^{i w t})``, fitted
+    like ``wave_height`` over the whole periods in ``[t_start, t_stop]``) is modelled as
+    ``A e^{-i k x_p} + B e^{+i k x_p}``: a wave travelling towards +x (A) and one towards -x (B);
+    A and B solve the least-squares system over the gauges. ``k`` defaults to linear theory's.
+
+    Args:
+      t: [T] s.  eta: [T, G] m, one column per gauge.  x: [G] m, gauge positions (G >= 2, not
+      spaced by a multiple of half a wavelength: the system is singular there).
+    Returns:
+      dict with ``H_incident``, ``H_reflected`` (m, 2|A|, 2|B|), ``Kr`` = |B| / |A|, ``k`` (1/m),
+      ``periods`` fitted and ``condition`` (of the gauge matrix; above ~10 the split is unreliable).
+    """
+    eta = np.asarray(eta, float)
+    x = np.asarray(x, float)
+    if eta.ndim != 2 or eta.shape[1] != x.size or x.size < 2:
+        raise ValueError(f"reflection: eta must be [T, G] with G = len(x) >= 2 gauges (got {eta.shape}, {x.size})")
+    if k is None:
+        w = 2 * math.pi / period
+        from .blocks.paths import wavenumber
+
+        k = float(wavenumber(w, depth, g))
+    Z = []
+    n = 0
+    for j in range(x.size):
+        c, n = _harmonic_fit(t, eta[:, j], period, t_start, t_stop)
+        if c is None:
+            raise ValueError(f"reflection: [t_start, t_stop] = [{t_start}, {t_stop}] s holds no whole period of {period} s")
+        Z.append(c[1] - 1j * c[0])  # a sin + b cos = Re((b - i a) e^{i w t})
+    M = np.stack([np.exp(-1j * k * x), np.exp(1j * k * x)], 1)
+    (A, B), *_ = np.linalg.lstsq(M, np.asarray(Z), rcond=None)
+    return dict(H_incident=2 * abs(A), H_reflected=2 * abs(B), Kr=abs(B) / abs(A), k=k, periods=n,
+                condition=float(np.linalg.cond(M)))
+
+
+def solitary_profile(x, t, *, wave_height: float, depth: float, x0: float = 0.0, g: float = GRAVITY):
+    """First-order (Boussinesq) solitary wave ``eta = H sech^2(K (x - x0 - c t))``,
+    ``K = sqrt(3 H / 4 d^3)``, ``c = sqrt(g (d + H))`` [m]."""
+    K = math.sqrt(3 * wave_height / (4 * depth ** 3))
+    c = math.sqrt(g * (depth + wave_height))
+    return wave_height / np.cosh(K * (np.asarray(x, float) - x0 - c * np.asarray(t, float))) ** 2
+
+
+def synolakis_runup(*, wave_height: float, depth: float, beach_slope: float) -> float:
+    """Synolakis (1987) run-up law of non-breaking solitary waves on a plane beach:
+    ``R / d = 2.831 sqrt(cot beta) (H / d)^(5/4)`` [m] (``beach_slope`` = tan beta, rise / run).
+    Valid for non-breaking waves, ``H / d < 0.818 (cot beta)^(-10/9)``."""
+    cot = 1.0 / beach_slope
+    return depth * 2.831 * math.sqrt(cot) * (wave_height / depth) ** 1.25

@@ -391,7 +391,8 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
                      flat_length: float = 2.0, beach_slope: float = 0.04, beach_length: float | None = None,
                      flume_width: float | None = None, periodic_y: bool = True, coupling: Coupling = Coupling.PENALTY,
                      gauge_x=None, h_factor: float = 1.5, c0: float | None = None, alpha: float = 0.02,
-                     wall_viscosity: float = 1.0, ramp_periods: float = 0.0) -> Scene:
+                     wall_viscosity: float = 1.0, ramp_periods: float = 0.0, signal=None,
+                     sponge_length: float = 0.0, sponge_strength: float = 10.0) -> Scene:
     """The seed's first example: a piston wave maker, a flat section and a sloping beach.
 
     The piston is a PRESCRIBED block, ``x(t) = x0 + S/2 r(t) sin(2 pi t / T)`` (stroke S, period T
@@ -412,8 +413,33 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     ``dx`` ~0.1 with ``flat_length=70``; the default is a small flume for tests. ``alpha``: artificial
     viscosity; ``wall_viscosity``: its factor towards the bed, walls and paddle (0 = free slip; see
     ``FluidParams``).
+
+    ``signal``: a ``blocks.paths.PaddleSignal`` (``paths.regular``, ``solitary``, ``focused_group``,
+    ``jonswap``, ``read_csv``) drives the paddle instead of the sine (``stroke``, ``period`` and
+    ``ramp_periods`` are then unused; ``Params.blocks.stroke`` scales the signal): a piston
+    translates along +x; a flap (``kind="flap"``) turns about its face's bottom edge on the bed
+    (x = 0, z = 0). Its ``water_depth`` must be the flume's. ``sponge_length`` > 0 puts a damping
+    zone (``sph.Sponge``, ``sponge_strength`` 1/s) over the last ``sponge_length`` metres of the
+    flat, before the beach: waves are absorbed instead of running up and reflecting.
     """
     dx = _positive("piston_wavemaker: dx", dx)
+    paddle = "piston"
+    if signal is not None:
+        from ..blocks.paths import PaddleSignal
+
+        if not isinstance(signal, PaddleSignal):
+            raise ValueError(f"piston_wavemaker: signal must be a rockjax.blocks.paths.PaddleSignal (from paths.regular, "
+                             f"solitary, focused_group, jonswap or read_csv), got {type(signal).__name__}")
+        if abs(signal.water_depth - water_depth) > 1e-9 * water_depth:
+            raise ValueError(f"piston_wavemaker: the signal was designed for water_depth {signal.water_depth} m, the "
+                             f"flume has {water_depth} m: give the generator the flume's depth")
+        paddle = signal.kind
+        stroke = signal.stroke
+    if not (math.isfinite(sponge_length) and 0.0 <= sponge_length < flat_length):
+        raise ValueError(f"piston_wavemaker: sponge_length must be >= 0 and shorter than flat_length = {flat_length} m "
+                         f"(got {sponge_length})")
+    if not (math.isfinite(sponge_strength) and sponge_strength > 0):
+        raise ValueError(f"piston_wavemaker: sponge_strength must be a damping rate > 0 in 1/s (got {sponge_strength})")
     if flume_width is None:
         flume_width = Resolution(dx, h_factor).narrowest_period(skin_factor=0.6) if periodic_y else 0.1
     for nm, v in (("stroke", stroke), ("period", period), ("water_depth", water_depth),
@@ -431,7 +457,12 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     piston = blocks.geometry.box(piston_t, flume_width, z_top + 0.1)
     pos = np.array([-0.5 * piston_t, 0.5 * flume_width, 0.5 * (z_top + 0.1)])
     n_beach = np.array([-beach_slope, 0.0, 1.0])
-    x_min = -math.ceil((0.5 * stroke + 3 * dx) / dx) * dx
+    back = 0.5 * stroke
+    if signal is not None:  # the paddle's furthest excursion behind x = 0 (a flap's top and back)
+        back = max(0.0, -float(np.min(signal.displacement)))
+        if paddle == "flap":
+            back = back * (z_top + 0.1) / water_depth + piston_t * float(np.max(np.abs(signal.displacement))) / water_depth
+    x_min = -math.ceil((back + 3 * dx) / dx) * dx
     container = [plane([0, 0, -1], [0, 0, 0]), plane(-n_beach, [flat_length, 0, 0]),
                  plane([1, 0, 0], [x_end, 0, 0]), plane([-1, 0, 0], [x_min, 0, 0])]
     if not periodic_y:
@@ -457,13 +488,28 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
                                  normal=(n_beach / np.linalg.norm(n_beach)).tolist(), x_min=flat_length),
                 gauges=dict(names=[f"x={gx:g}" for gx in gauge_x], xy=[[gx, 0.5 * flume_width] for gx in gauge_x],
                             bottom_z=[0.0] * len(gauge_x)))
-    return coupled_scene(name="piston_wavemaker", dx=dx, polyhedra=[piston], positions=[pos],
-                         motion=(blocks.Motion.PRESCRIBED,), block_density=2500.0, friction_angle_deg=30.0,
-                         fluid_x=water, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi, periodic=periodic,
-                         still_level=water_depth, coupling=coupling, c0=c0, h_factor=h_factor, alpha=alpha,
-                         wall_viscosity=wall_viscosity, meta=meta,
-                         block_kwargs=dict(stroke=stroke, period=period, prescribed_direction=[(1.0, 0.0, 0.0)],
-                                           prescribed_ramp=ramp_periods * period))
+    if signal is None:
+        motion_kwargs = dict(stroke=stroke, period=period, prescribed_direction=[(1.0, 0.0, 0.0)],
+                             prescribed_ramp=ramp_periods * period)
+    else:
+        path = signal.piston() if paddle == "piston" else signal.flap(hinge=(0.0, 0.5 * flume_width, 0.0))
+        motion_kwargs = dict(paths=path, period=period)
+        meta.update(paddle=paddle, signal={k: v for k, v in signal.info.items() if np.ndim(v) == 0},
+                    signal_end=float(signal.times[-1]))
+    if sponge_length > 0:
+        meta.update(sponge=dict(start=flat_length - sponge_length, end=flat_length, strength=sponge_strength))
+    scene = coupled_scene(name="piston_wavemaker", dx=dx, polyhedra=[piston], positions=[pos],
+                          motion=(blocks.Motion.PRESCRIBED,), block_density=2500.0, friction_angle_deg=30.0,
+                          fluid_x=water, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi, periodic=periodic,
+                          still_level=water_depth, coupling=coupling, c0=c0, h_factor=h_factor, alpha=alpha,
+                          wall_viscosity=wall_viscosity, meta=meta, block_kwargs=motion_kwargs)
+    if sponge_length > 0:
+        from ..sph.absorbers import Sponge
+
+        sponge = Sponge(start=(flat_length - sponge_length, 0.0, 0.0), end=(flat_length, 0.0, 0.0),
+                        strength=sponge_strength)
+        scene = scene.replace(config=scene.config.replace(absorbers=(sponge,)))
+    return scene
 
 
 def block_on_incline(*, angle_deg: float = 30.0, friction_angle_deg: float = 20.0, block_size=(0.2, 0.2, 0.1),

@@ -1,8 +1,10 @@
 """The fluid: SPH kernels, neighbour search, equations of state, wall particles, and the fluid
 schemes with their terms as static objects (``schemes``: ``WCSPH``, ``SeedScheme``; ``kernels``,
-``viscosity``, ``diffusion``, ``walls``: one class per choice). Re-exported here: the scheme and
+``viscosity``, ``diffusion``, ``walls``: one class per choice), and absorbing zones
+(``absorbers``: ``Sponge``, listed in ``Config.absorbers``). Re-exported here: the scheme and
 term classes a user composes."""
 
+from .absorbers import Absorber, Sponge
 from .diffusion import Antuono, DensityDiffusion, Fourtakas, FourtakasSurface, Molteni, NoDiffusion
 from .kernels import CubicSpline, Kernel, Poly6Gradient, SeedGradientKernel, SpikyGradient, WendlandC2
 from .schemes import WCSPH, FluidScheme, SeedScheme, from_names
@@ -17,4 +19,5 @@ __all__ = [
     "DensityDiffusion", "NoDiffusion", "Molteni", "Fourtakas", "FourtakasSurface", "Antuono",
     "WallModel", "Adami", "DynamicWalls",
     "Term", "by_name", "names",
+    "Absorber", "Sponge",
 ]
