@@ -24,7 +24,7 @@ from rockjax.scenes.scenefile import RunOptions, load, load_builtin, load_scene
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
 # coarse spacings [m] that each example accepts (the builders' own limits: >= 4 layers of water, ...)
-COARSE_DX = dict(sliding_wedge=0.08, dam_break=0.1, hydrostatic_tank=0.05, piston_wavemaker=0.1, floating_box=0.05,
+COARSE_DX = dict(sliding_wedge=0.08, dam_break=0.1, hydrostatic_tank=0.05, piston_wavemaker=0.1, wave_flume=0.1, floating_box=0.05,
                  block_drop=0.05, block_on_incline=None)
 
 

@@ -55,6 +55,7 @@ from .model import (
 from .rotation import quat_from_axis_angle, quat_matrix
 
 __all__ = [
+    "paths",
     "BlockCapacities",
     "BlockConfig",
     "BlockGeometry",

@@ -4,7 +4,7 @@ read a scene described in a TOML file (``rockjax.scenes.scenefile``); ``settle``
 water before its run."""
 
 from .base import Resolution, Scene, check_params, stable_dt
-from .coupled import block_drop, block_on_incline, floating_box, piston_wavemaker, sliding_wedge
+from .coupled import block_drop, block_on_incline, floating_box, piston_wavemaker, sliding_wedge, wave_flume
 from .fluid import dam_break, hydrostatic_tank
 from .meta import Gauges, RunupSlope, SceneMeta
 from .scenefile import load as load_file, load_scene
@@ -15,10 +15,11 @@ BUILTIN = {
     "dam_break": dam_break,
     "hydrostatic_tank": hydrostatic_tank,
     "piston_wavemaker": piston_wavemaker,
+    "wave_flume": wave_flume,
     "floating_box": floating_box,
     "block_drop": block_drop,
     "block_on_incline": block_on_incline,
 }
 
-__all__ = ["Scene", "SceneMeta", "Gauges", "RunupSlope", "Resolution", "BUILTIN", "dam_break", "hydrostatic_tank", "sliding_wedge", "piston_wavemaker",
+__all__ = ["Scene", "SceneMeta", "Gauges", "RunupSlope", "Resolution", "BUILTIN", "dam_break", "hydrostatic_tank", "sliding_wedge", "piston_wavemaker", "wave_flume",
            "floating_box", "block_drop", "block_on_incline", "check_params", "stable_dt", "load_scene", "load_file", "settle"]

@@ -512,6 +512,66 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     return scene
 
 
+def wave_flume(*, dx: float = 0.03, water_depth: float = 0.3, wave: str = "regular", paddle: str = "piston",
+               wave_height: float = 0.02, period: float = 1.26, duration: float | None = None, seed: int = 0,
+               focus_x: float | None = None, focus_t: float | None = None, wave_times: list | None = None,
+               wave_displacement: list | None = None, wave_file: str = "", flat_length: float = 4.0,
+               beach_slope: float = 0.1, sponge_length: float = 0.0, sponge_strength: float = 10.0, gauge_x=None,
+               coupling: Coupling = Coupling.BOUNDARY_PARTICLES, h_factor: float = 1.5, alpha: float = 0.02,
+               periodic_y: bool = True) -> Scene:
+    """A wave flume driven by a paddle of any motion: ``piston_wavemaker`` with its ``signal``
+    made from scalar options (so scene files and the CLI reach every generator of
+    ``blocks.paths``).
+
+    ``wave``: "regular" (height ``wave_height``, ``period``, ramped over 2 periods, lasting
+    ``duration``, default 12 periods), "solitary" (Goring's piston path for a solitary wave of
+    height ``wave_height``), "focused" (a focused group of crest amplitude ``wave_height`` at
+    ``focus_x`` m, default the middle of the flat, and ``focus_t`` s, default 8 periods; its
+    frequencies span 0.7-1.4 / ``period``), "jonswap" (significant height ``wave_height``, peak
+    period ``period``, ``seed``, ``duration`` default 30 periods), "table" (``wave_times`` s and
+    ``wave_displacement`` m, inline arrays), "csv" (a paddle record ``wave_file``: columns t, x).
+    ``paddle``: "piston" or "flap" (hinged on the bed; not for "solitary"). The flume is
+    ``piston_wavemaker``'s: a flat of ``flat_length`` then a beach of ``beach_slope``; a sponge of
+    ``sponge_length`` (m, 0 = none) ends the flat. Gauges at ``gauge_x`` (default 1, 2, 4 and 6
+    depths from the paddle, those on the flat)."""
+    from ..blocks import paths
+
+    d = _positive("wave_flume: water_depth", water_depth)
+    T = _positive("wave_flume: period", period)
+    if paddle not in ("piston", "flap"):
+        raise ValueError(f"wave_flume: paddle must be 'piston' or 'flap' (got {paddle!r})")
+    if wave == "regular":
+        sig = paths.regular(period=T, water_depth=d, duration=12 * T if duration is None else duration,
+                            wave_height=wave_height, ramp_periods=2.0, kind=paddle)
+    elif wave == "solitary":
+        sig = paths.solitary(wave_height=wave_height, water_depth=d, kind=paddle)
+    elif wave == "focused":
+        sig = paths.focused_group(amplitude=wave_height, water_depth=d, f_min=0.7 / T, f_max=1.4 / T,
+                                  x_focus=0.5 * flat_length if focus_x is None else focus_x,
+                                  t_focus=8 * T if focus_t is None else focus_t, kind=paddle)
+    elif wave == "jonswap":
+        sig = paths.jonswap(hs=wave_height, tp=T, water_depth=d, duration=30 * T if duration is None else duration,
+                            seed=seed, kind=paddle)
+    elif wave == "table":
+        if wave_times is None or wave_displacement is None:
+            raise ValueError("wave_flume: wave = 'table' needs wave_times (s) and wave_displacement (m) arrays")
+        sig = paths.PaddleSignal(np.asarray(wave_times, float), np.asarray(wave_displacement, float), d, paddle,
+                                 dict(generator="table"))
+        paths.Table(sig.times, sig.displacement)  # validates the table (times increasing, one value per time)
+    elif wave == "csv":
+        if not wave_file:
+            raise ValueError("wave_flume: wave = 'csv' needs wave_file, a CSV of t [s], displacement [m]")
+        sig = paths.read_csv(wave_file, water_depth=d, kind=paddle)
+    else:
+        raise ValueError(f"wave_flume: wave must be one of regular, solitary, focused, jonswap, table, csv (got {wave!r})")
+    if gauge_x is None:
+        gauge_x = [g * d for g in (1, 2, 4, 6) if g * d < flat_length - sponge_length]
+    scene = piston_wavemaker(dx=dx, water_depth=d, flat_length=flat_length, beach_slope=beach_slope, signal=sig,
+                             sponge_length=sponge_length, sponge_strength=sponge_strength, gauge_x=gauge_x,
+                             coupling=coupling, h_factor=h_factor, alpha=alpha, periodic_y=periodic_y, period=T)
+    return scene.replace(meta=scene.meta.with_items(name="wave_flume", wave=wave))
+
+
 def block_on_incline(*, angle_deg: float = 30.0, friction_angle_deg: float = 20.0, block_size=(0.2, 0.2, 0.1),
                      block_density: float = 2500.0, block_kwargs: dict | None = None) -> Scene:
     """Blocks only: a box resting on a fixed incline (no water; no SPH is traced).

@@ -608,6 +608,8 @@ def _builder_kwargs(ctx: _Ctx, name: str, options: dict, overrides: dict) -> dic
         if key not in params:
             ctx.fail(path, f"unknown option of built-in scene {name!r}; accepted: {accepted}")
         kwargs[key] = _builtin_value(ctx, path, v, hints.get(key), params[key].default)
+        if key.endswith("_file") and isinstance(kwargs[key], str) and kwargs[key]:
+            kwargs[key] = _path_in(ctx, path, kwargs[key])  # relative to the scene file
     for key, v in overrides.items():
         if key not in params:
             raise ValueError(f"scene {name!r} has no option --{key} (its options: {accepted})")
