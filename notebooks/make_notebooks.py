@@ -412,6 +412,83 @@ several hosts with `jax.distributed`; see the `rockjax.ensembles` docstring).
 """),
 ]
 
+WAVE_MAKER = [
+    md("""
+# Wave makers: a solitary wave running up a beach, and paddles of any motion
+
+A wave flume's paddle is a PRESCRIBED block that follows a **path** (`rockjax.blocks.paths`): a
+table of displacements (piston) or angles (flap), interpolated by a clamped cubic spline so that
+the paddle's velocity is the exact derivative of its position. Generators turn a target wave
+into a paddle signal with linear wave-maker theory (Biesel's transfer functions) or, for a
+solitary wave, Goring's (1978) path. `scenes.wave_flume` builds a flume around any of them;
+`sponge_length` ends the flat in a damping layer (`rockjax.Sponge`).
+
+**Resolution switch.** `ROCKJAX_NB_FAST=1` (the tests) runs the flume at `dx = 0.05` m (six
+particle layers in 0.3 m of water: coarse, the wave comes out low); `ROCKJAX_NB_FAST=0` at
+`dx = 0.02` m (see `experiments/solitary_runup.py` and RESULTS.md for the measured errors).
+"""),
+    code(SWITCH),
+    code("""
+import matplotlib.pyplot as plt
+import numpy as np
+
+import rockjax as rj
+from rockjax.blocks import paths
+from rockjax.observables import scene_observer
+from rockjax.validation import solitary_profile, synolakis_runup
+
+DEPTH, H = 0.3, 0.06
+fig, ax = plt.subplots(1, 4, figsize=(15, 3))
+sig = paths.solitary(wave_height=H, water_depth=DEPTH)
+ax[0].plot(sig.times, 100 * sig.displacement); ax[0].set_title("solitary (Goring): piston [cm]")
+reg = paths.regular(period=1.2, water_depth=DEPTH, duration=8.0, wave_height=0.03, kind="flap")
+ax[1].plot(reg.times, 100 * reg.displacement); ax[1].set_title("regular, flap: stroke at SWL [cm]")
+foc = paths.focused_group(amplitude=0.04, water_depth=DEPTH, f_min=0.6, f_max=1.2, x_focus=3.0, t_focus=10.0)
+ax[2].plot(foc.times, 100 * foc.displacement); ax[2].set_title("focused group: piston [cm]")
+irr = paths.jonswap(hs=0.03, tp=1.2, water_depth=DEPTH, duration=40.0, seed=1)
+ax[3].plot(irr.times, 100 * irr.displacement); ax[3].set_title("JONSWAP, seed 1: piston [cm]")
+for a in ax:
+    a.set_xlabel("t [s]")
+fig.tight_layout(); plt.show()
+print(f"solitary: stroke {sig.stroke:.3f} m, celerity {sig.info['celerity']:.3f} m/s")
+"""),
+    md("""
+The solitary wave (H/d = 0.2) runs 10 depths along the flat and up a 20 degree beach. Gauges at
+2, 5 and 10 depths; the run-up is the highest water particle on the beach.
+"""),
+    code("""
+dx = 0.05 if FAST else 0.02
+scene = rj.scenes.wave_flume(dx=dx, water_depth=DEPTH, wave="solitary", wave_height=H, flat_length=10 * DEPTH,
+                             beach_slope=np.tan(np.radians(20.0)), gauge_x=[2 * DEPTH, 5 * DEPTH, 10 * DEPTH])
+t_end = sig.info["t_crest_at_paddle"] + 10 * DEPTH / sig.info["celerity"] + 1.5
+print(f"{scene.config.n_fluid} water particles, dt = {scene.config.dt:.2e} s, {round(t_end / scene.config.dt)} steps")
+result = rj.simulate(scene, t_end=t_end, frame_dt=0.02, observe=scene_observer(scene.meta))
+t, eta, ru = result.times, result.observed["gauges"], result.observed["runup"]
+"""),
+    code("""
+fig, ax = plt.subplots(1, 2, figsize=(12, 3.5))
+for j, name in enumerate(scene.meta["gauges"]["names"]):
+    line, = ax[0].plot(t, 1000 * eta[:, j], label=name)
+    i = int(np.argmax(eta[:, j]))
+    ax[0].plot(t, 1000 * solitary_profile(0.0, -(t - t[i]), wave_height=H, depth=DEPTH), ":", color=line.get_color())
+ax[0].set_xlabel("t [s]"); ax[0].set_ylabel("elevation [mm]")
+ax[0].set_title("gauges (dotted: Boussinesq profile of height H at each crest)"); ax[0].legend()
+R_syn = synolakis_runup(wave_height=H, depth=DEPTH, beach_slope=np.tan(np.radians(20.0)))
+ax[1].plot(t, 1000 * ru, label="run-up (highest particle)")
+ax[1].axhline(1000 * R_syn, color="k", ls="--", label="Synolakis (1987)")
+ax[1].set_xlabel("t [s]"); ax[1].set_ylabel("run-up [mm]"); ax[1].legend()
+fig.tight_layout(); plt.show()
+print(f"crest at 10 depths: {1000 * eta[:, 2].max():.1f} mm (target {1000 * H:.0f} mm); "
+      f"max run-up {1000 * ru.max():.0f} mm, Synolakis {1000 * R_syn:.0f} mm")
+"""),
+    md("""
+Gradients flow through the paddle's path: `Params.blocks.stroke` scales it (the scene was built
+with `BlockConfig.path_stroke`, so `stroke / path_stroke = 1` is the path as given); `jax.grad`
+of a gauge or run-up misfit w.r.t. `blocks.stroke` is the sensitivity to the wave's size
+(`tests/gradients/test_paddle_grad.py` checks it against finite differences).
+"""),
+]
+
 
 def write(name: str, cells, *, slow: bool = False):
     nb = new_notebook(cells=cells)
@@ -428,4 +505,5 @@ def write(name: str, cells, *, slow: bool = False):
 if __name__ == "__main__":
     write("quickstart.ipynb", QUICKSTART)
     write("calibration.ipynb", CALIBRATION, slow=True)  # measured 9 min on a loaded 2-core machine: slow set
-    write("ensembles.ipynb", ENSEMBLES, slow=True)  # measured 112 s in the tests (2026-11-27): slow set
+    write("ensembles.ipynb", ENSEMBLES, slow=True)
+    write("wave_maker.ipynb", WAVE_MAKER, slow=True)  # a ~4 s flume run: slow set  # measured 112 s in the tests (2026-11-27): slow set
