@@ -1168,8 +1168,66 @@ def sec_full_event(doc: Doc):
                      "iterations", "evaluations", "converged", "wall s"], rows))
 
 
+def sec_waves(doc: Doc):
+    doc.h("Waves (issue 45): decay causes, absorbing ends, solitary waves")
+    recs = doc.records("piston_decay_ab.jsonl", "python experiments/piston_decay.py --variant PARTS --out "
+                       "experiments/results/piston_decay_ab.jsonl")
+    if recs is not None:
+        doc.p("A/B of the candidate causes of low and decaying waves (`experiments/piston_decay.py`, kh = 1, depth "
+              "0.3 m, stroke 0.04 m, dx 0.03 m, h = 1.5 dx, boundary-particle paddle, t_end 6.4 s; one change per row "
+              "against `base`: the scene's defaults, alpha 0.02, Fourtakas diffusion, Wendland C2, Adami walls, "
+              "impulsive start). H/S at 1 and 6 depths from the paddle (fit from the front's arrival + 1 period; "
+              "linear theory 0.982); `decay / L`: loss of height per wavelength from the slope of ln H over the "
+              "gauges at 1-6 depths; `viscous decay / L`: Lamb's e^{-2 nu k^2 L / c_g} for the effective viscosity "
+              "`nu` (alpha h c0 / 10 for Monaghan's term, the laminar nu otherwise).")
+        rows = []
+        for r in recs:
+            g = {round(x["x_over_depth"]): {f["delay_periods"]: f for f in x["fits"]} for x in r["gauges"]}
+
+            def hs(d):
+                f = g.get(d, {})
+                q = f.get(1) or f.get(0) or {}
+                return q.get("H_over_S")
+            name = r.get("variant") or ""
+            if r.get("diffusion", "fourtakas") != "fourtakas":
+                name = (name + "+" if name else "") + "diffusion " + r["diffusion"]
+            if abs(float(r.get("alpha", 0.02)) - 0.02) > 1e-6:
+                name = (name + "+" if name else "") + f"alpha {float(r['alpha']):.3g}"
+            if r.get("coupling") != "boundary_particles":
+                name = (name + "+" if name else "") + str(r.get("coupling"))
+            rows.append([name or "base", r.get("nu_effective"), hs(1), hs(2), hs(4), hs(6), r.get("decay_per_wavelength"),
+                         r.get("viscous_decay_per_wavelength"), r.get("k_fit"), r.get("wall_s"), r.get("date")])
+        doc.p(table(["variant", "nu eff. [m^2/s]", "H/S 1 d", "H/S 2 d", "H/S 4 d", "H/S 6 d", "decay / L",
+                     "viscous decay / L", "k fit (3.333)", "wall s", "date"], rows))
+    recs = doc.records("wave_absorption.jsonl", "python experiments/wave_absorption.py --kh 1.0")
+    if recs is not None:
+        doc.p("Reflection from the flume's end (`experiments/wave_absorption.py`): regular waves of target height "
+              "0.02 m into a sponge (`rockjax.Sponge`, length in wavelengths, damping `strength` at its end) "
+              "before a 1:2 beach, or into the bare beach; `Kr` from four gauges by Mansard & Funke's least squares "
+              "(`validation.reflection`) over the periods after the reflection returned; `H_I` the incident height "
+              "in that window and before any reflection arrived. Target Kr <= 5 %.")
+        rows = [[r["kh"], r["dx"], r["sponge"], r["sponge_wavelengths"], r["strength"], r["sponge_strength_over_omega"],
+                 r["Kr"], r["H_incident"], r.get("H_incident_before_reflection"), r["target_height"], r["condition"],
+                 r["periods"], r["n_fluid"], r["wall_s"], r.get("date")] for r in recs]
+        doc.p(table(["kh", "dx [m]", "sponge", "length / L", "strength [1/s]", "strength / omega", "Kr", "H_I [m]",
+                     "H_I before refl. [m]", "target H [m]", "cond.", "periods", "n_fluid", "wall s", "date"], rows))
+    recs = doc.records("solitary_runup.jsonl", "python experiments/solitary_runup.py --dx 0.03")
+    if recs is not None:
+        doc.p("Solitary waves from Goring's piston path (`experiments/solitary_runup.py`, depth 0.3 m, a flat of 10 "
+              "depths, then a plane beach): crest height at 2, 5 and 10 depths over the target H; celerity between "
+              "5 and 10 depths against sqrt(g (d + H)); the record at 10 depths against the Boussinesq profile of "
+              "its own height (RMS over H); maximum run-up against Synolakis (1987) R/d = 2.831 sqrt(cot beta) "
+              "(H/d)^1.25 (target: within 10 %).")
+        rows = [[r["dx"], r["H_over_d"], r["H_over_dx"], r["beach_slope"], r["alpha"], *r["crest_over_H"],
+                 r["celerity_rel_error"], r["shape_rms_over_H"], r["runup"], r["runup_synolakis"], r["runup_rel_error"],
+                 r["n_fluid"], r["wall_s"], r.get("date")] for r in recs]
+        doc.p(table(["dx [m]", "H/d", "H/dx", "tan beta", "alpha", "crest/H 2 d", "crest/H 5 d", "crest/H 10 d",
+                     "celerity err.", "shape RMS/H", "R [m]", "R Synolakis [m]", "R err.", "n_fluid", "wall s", "date"],
+                    rows))
+
+
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
-            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_redesign, sec_full_event, sec_stress]
+            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_redesign, sec_full_event, sec_waves, sec_stress]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:

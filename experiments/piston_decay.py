@@ -88,7 +88,8 @@ def simulate(dx: float, coupling: str, t_end: float, npz: str, *, alpha=None, wa
     np.savez(npz, t=res.times, eta=res.observed["gauges"], T=T, gx=GAUGES, theory=piston_transfer(KH),
              wall=time.perf_counter() - t0, n=scene.config.n_fluid, dx=dx, coupling=coupling,
              load=os.getloadavg()[0], alpha=float(fl.alpha), wall_viscosity=float(fl.wall_viscosity),
-             h_factor=h_factor, diffusion=diffusion, stroke=stroke, variant=variant)
+             h_factor=h_factor, diffusion=diffusion, stroke=stroke, variant=variant, c0=float(fl.c0), h=float(fl.h),
+             nu=float(fl.nu))
 
 
 def analyse(npz: str, delays=(0, 1, 2)) -> dict:
@@ -122,7 +123,30 @@ def analyse(npz: str, delays=(0, 1, 2)) -> dict:
     if len(far) >= 2:
         xs = np.array([a for a, _ in far])
         k_fit = float(np.polyfit(xs, np.unwrap([b for _, b in far]), 1)[0])
+    # decay along the flume: slope of ln H over the gauges from 1 depth (delay-1 fits where there
+    # are any, else delay 0), as a loss per wavelength; and what a viscosity nu predicts for a
+    # progressive wave's amplitude (Lamb: e^{-2 nu k^2 t}, t = L / c_g per wavelength) with the
+    # artificial viscosity's equivalent nu = alpha h c0 / 10 (3D, Monaghan) plus the laminar nu
+    xs, lnH = [], []
+    for r in rows:
+        f = {q["delay_periods"]: q for q in r["fits"]}
+        q = f.get(1) or f.get(0)
+        if q is not None:
+            xs.append(r["x"])
+            lnH.append(np.log(q["H_over_S"]))
+    L = 2 * np.pi / wave["k"]
+    decay = float(1 - np.exp(np.polyfit(xs, lnH, 1)[0] * L)) if len(xs) >= 2 else None
+    dxv = float(d["dx"]) if "dx" in d else 0.03
+    hf = float(d["h_factor"]) if "h_factor" in d else 1.3
+    h = float(d["h"]) if "h" in d else hf * dxv
+    c0 = float(d["c0"]) if "c0" in d else 15.0 * np.sqrt(9.81 * DEPTH)
+    variant = str(d["variant"]) if "variant" in d else ""
+    laminar = "laminar" in variant or "sps" in variant
+    nu_art = 0.0 if laminar else (float(d["alpha"]) if "alpha" in d else 0.02) * h * c0 / 10.0
+    nu = nu_art + ((float(d["nu"]) if "nu" in d else 1e-6) if laminar else 0.0)
+    predicted = float(1 - np.exp(-2 * nu * wave["k"] ** 2 * L / wave["cg"]))
     return dict(kh=KH, depth=DEPTH, stroke=stroke, period=T, dx=float(d["dx"]) if "dx" in d else None,
+                decay_per_wavelength=decay, viscous_decay_per_wavelength=predicted, nu_effective=nu,
                 coupling=str(d["coupling"]) if "coupling" in d else None, n_fluid=int(d["n"]),
                 alpha=float(d["alpha"]) if "alpha" in d else 0.02,
                 wall_viscosity=float(d["wall_viscosity"]) if "wall_viscosity" in d else 1.0,
