@@ -32,7 +32,8 @@ HERE = pathlib.Path(__file__).resolve().parent
 DEPTH = 0.3
 
 
-def run(dx: float, ratio: float, beach_slope: float, alpha: float, t_after: float) -> dict:
+def run(dx: float, ratio: float, beach_slope: float, alpha: float, t_after: float, *, laminar: bool = False,
+        wall_viscosity: float = 1.0) -> dict:
     import rockjax as rj
     from rockjax.blocks import paths
     from rockjax.observables import scene_observer
@@ -42,6 +43,14 @@ def run(dx: float, ratio: float, beach_slope: float, alpha: float, t_after: floa
     gx = [2 * DEPTH, 5 * DEPTH, 10 * DEPTH]  # the paddle itself advances 1 d (its stroke) at H/d = 0.2
     scene = rj.scenes.wave_flume(dx=dx, water_depth=DEPTH, wave="solitary", wave_height=H, flat_length=10 * DEPTH,
                                  beach_slope=beach_slope, gauge_x=gx, alpha=alpha)
+    fl = scene.params.fluid.replace(wall_viscosity=scene.params.fluid.alpha * 0 + wall_viscosity)
+    if laminar:  # water's viscosity instead of Monaghan's artificial one
+        import dataclasses
+
+        scene = scene.replace(config=scene.config.replace(
+            scheme=dataclasses.replace(scene.config.scheme, viscosity=rj.sph.Laminar())))
+        fl = fl.replace(nu=fl.nu * 0 + 1e-6)
+    scene = scene.replace(params=scene.params.replace(fluid=fl))
     sig = paths.solitary(wave_height=H, water_depth=DEPTH)
     K, c = sig.info["K"], sig.info["celerity"]
     # the crest leaves the paddle at about t_crest_at_paddle, reaches the toe 10 d later
@@ -77,6 +86,7 @@ def run(dx: float, ratio: float, beach_slope: float, alpha: float, t_after: floa
     R = float(np.max(ru))
     R_theory = synolakis_runup(wave_height=H, depth=DEPTH, beach_slope=beach_slope)
     return dict(dx=dx, depth=DEPTH, H=H, H_over_d=ratio, beach_slope=beach_slope, alpha=alpha,
+                viscosity="laminar 1e-6" if laminar else "artificial", wall_viscosity=wall_viscosity,
                 H_over_dx=H / dx, depth_over_dx=DEPTH / dx,
                 gauges=gx, crest=crests, crest_over_H=[cr / H for cr in crests], t_crest=t_crest,
                 celerity=cel, celerity_theory=c, celerity_rel_error=cel / c - 1,
@@ -91,10 +101,13 @@ def main():
     ap.add_argument("--height-ratio", type=float, default=0.2, help="H / d")
     ap.add_argument("--beach-slope", type=float, default=math.tan(math.radians(20.0)))
     ap.add_argument("--alpha", type=float, default=0.02, help="artificial viscosity")
+    ap.add_argument("--laminar", action="store_true", help="sph.Laminar viscosity (nu 1e-6) instead of alpha")
+    ap.add_argument("--wall-viscosity", type=float, default=1.0, help="FluidParams.wall_viscosity (0: free slip)")
     ap.add_argument("--t-after", type=float, default=1.5, help="s simulated after the crest reaches the toe")
     ap.add_argument("--out", default=str(HERE / "results" / "solitary_runup.jsonl"))
     a = ap.parse_args()
-    rec = run(a.dx, a.height_ratio, a.beach_slope, a.alpha, a.t_after)
+    rec = run(a.dx, a.height_ratio, a.beach_slope, a.alpha, a.t_after, laminar=a.laminar,
+              wall_viscosity=a.wall_viscosity)
     print(json.dumps(rec))
     rec["date"] = time.strftime("%Y-%m-%d")
     with open(a.out, "a") as f:
