@@ -27,7 +27,7 @@ DEPTH, HEIGHT = 0.3, 0.02
 
 
 def run(kh: float, dx: float, *, sponge_wavelengths: float, strength: float, sponge: bool, height: float,
-        periods_after: float) -> dict:
+        periods_after: float, laminar: bool = False) -> dict:
     import rockjax as rj
     from rockjax.blocks import paths
     from rockjax.observables import scene_observer
@@ -47,6 +47,12 @@ def run(kh: float, dx: float, *, sponge_wavelengths: float, strength: float, spo
     scene = rj.scenes.piston_wavemaker(dx=dx, water_depth=DEPTH, flat_length=flat, beach_slope=0.5, signal=sig,
                                        gauge_x=list(x_gauges), sponge_length=s_len,
                                        sponge_strength=strength if sponge else 10.0)
+    if laminar:  # the water's viscosity instead of Monaghan's artificial one (no numerical wave decay)
+        import dataclasses
+
+        scene = scene.replace(config=scene.config.replace(
+            scheme=dataclasses.replace(scene.config.scheme, viscosity=rj.sph.Laminar())),
+            params=scene.params.replace(fluid=scene.params.fluid.replace(nu=scene.params.fluid.nu * 0 + 1e-6)))
     t0 = time.perf_counter()
     res = rj.simulate(scene, t_end=t_end, frame_dt=T / 25, observe=scene_observer(scene.meta), progress=False)
     wall = time.perf_counter() - t0
@@ -59,6 +65,7 @@ def run(kh: float, dx: float, *, sponge_wavelengths: float, strength: float, spo
     r0 = (reflection(t, eta, x_gauges, period=T, depth=DEPTH, t_start=t_first, t_stop=t_stop0)
           if t_stop0 - t_first >= T else None)
     return dict(kh=kh, depth=DEPTH, period=T, wavelength=L, dx=dx, target_height=height, sponge=sponge,
+                viscosity="laminar 1e-6" if laminar else "artificial",
                 sponge_wavelengths=sponge_wavelengths if sponge else 0.0, strength=strength if sponge else 0.0,
                 sponge_strength_over_omega=strength * T / (2 * np.pi) if sponge else 0.0,
                 flat_length=flat, gauges=[float(g) for g in x_gauges], t_end=t_end, t_window=[t_back, t_end],
@@ -74,6 +81,7 @@ def main():
     ap.add_argument("--height", type=float, default=HEIGHT, help="target wave height m")
     ap.add_argument("--sponge-wavelengths", type=float, default=1.0)
     ap.add_argument("--strength", type=float, default=None, help="sponge damping 1/s (default: 2 omega)")
+    ap.add_argument("--laminar", action="store_true", help="sph.Laminar viscosity (nu 1e-6) instead of alpha")
     ap.add_argument("--no-sponge", action="store_true", help="the bare beach (slope 0.5) for comparison")
     ap.add_argument("--periods-after", type=float, default=5.0, help="periods measured after the reflection returns")
     ap.add_argument("--out", default=str(HERE / "results" / "wave_absorption.jsonl"))
@@ -83,7 +91,7 @@ def main():
     omega = linear_wave(a.kh, DEPTH)["omega"]
     strength = 2 * omega if a.strength is None else a.strength
     rec = run(a.kh, a.dx, sponge_wavelengths=a.sponge_wavelengths, strength=strength, sponge=not a.no_sponge,
-              height=a.height, periods_after=a.periods_after)
+              height=a.height, periods_after=a.periods_after, laminar=a.laminar)
     print(json.dumps(rec))
     rec["date"] = time.strftime("%Y-%m-%d")
     with open(a.out, "a") as f:

@@ -19,6 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..sph.schemes import WCSPH, FluidScheme
+from ..sph.viscosity import Laminar
 from ..types import Capacities, Config, Coupling, CouplingParams, State, float_dtype
 from .base import GRAVITY, Resolution, Scene, _ceil8, _positive, as_scheme, make_state, particle_layout, stable_dt, water_params
 from .block_sampling import sample_block_particles, submerged_pair_count
@@ -392,7 +393,8 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
                      flume_width: float | None = None, periodic_y: bool = True, coupling: Coupling = Coupling.PENALTY,
                      gauge_x=None, h_factor: float = 1.5, c0: float | None = None, alpha: float = 0.02,
                      wall_viscosity: float = 1.0, ramp_periods: float = 0.0, signal=None,
-                     sponge_length: float = 0.0, sponge_strength: float = 10.0) -> Scene:
+                     sponge_length: float = 0.0, sponge_strength: float = 10.0,
+                     scheme: FluidScheme | str = WCSPH()) -> Scene:
     """The seed's first example: a piston wave maker, a flat section and a sloping beach.
 
     The piston is a PRESCRIBED block, ``x(t) = x0 + S/2 r(t) sin(2 pi t / T)`` (stroke S, period T
@@ -420,7 +422,9 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     translates along +x; a flap (``kind="flap"``) turns about its face's bottom edge on the bed
     (x = 0, z = 0). Its ``water_depth`` must be the flume's. ``sponge_length`` > 0 puts a damping
     zone (``sph.Sponge``, ``sponge_strength`` 1/s) over the last ``sponge_length`` metres of the
-    flat, before the beach: waves are absorbed instead of running up and reflecting.
+    flat, before the beach: waves are absorbed instead of running up and reflecting. ``scheme``:
+    the fluid scheme (an object or a name; ``WCSPH(viscosity=Laminar())`` keeps the waves' height
+    along the flume, see ``wave_flume``).
     """
     dx = _positive("piston_wavemaker: dx", dx)
     paddle = "piston"
@@ -502,7 +506,7 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
                           motion=(blocks.Motion.PRESCRIBED,), block_density=2500.0, friction_angle_deg=30.0,
                           fluid_x=water, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi, periodic=periodic,
                           still_level=water_depth, coupling=coupling, c0=c0, h_factor=h_factor, alpha=alpha,
-                          wall_viscosity=wall_viscosity, meta=meta, block_kwargs=motion_kwargs)
+                          wall_viscosity=wall_viscosity, meta=meta, block_kwargs=motion_kwargs, scheme=scheme)
     if sponge_length > 0:
         from ..sph.absorbers import Sponge
 
@@ -518,7 +522,7 @@ def wave_flume(*, dx: float = 0.03, water_depth: float = 0.3, wave: str = "regul
                wave_displacement: list | None = None, wave_file: str = "", flat_length: float = 4.0,
                beach_slope: float = 0.1, sponge_length: float = 0.0, sponge_strength: float = 10.0, gauge_x=None,
                coupling: Coupling = Coupling.BOUNDARY_PARTICLES, h_factor: float = 1.5, alpha: float = 0.02,
-               periodic_y: bool = True) -> Scene:
+               periodic_y: bool = True, scheme: FluidScheme | str = WCSPH(viscosity=Laminar())) -> Scene:
     """A wave flume driven by a paddle of any motion: ``piston_wavemaker`` with its ``signal``
     made from scalar options (so scene files and the CLI reach every generator of
     ``blocks.paths``).
@@ -533,7 +537,14 @@ def wave_flume(*, dx: float = 0.03, water_depth: float = 0.3, wave: str = "regul
     ``paddle``: "piston" or "flap" (hinged on the bed; not for "solitary"). The flume is
     ``piston_wavemaker``'s: a flat of ``flat_length`` then a beach of ``beach_slope``; a sponge of
     ``sponge_length`` (m, 0 = none) ends the flat. Gauges at ``gauge_x`` (default 1, 2, 4 and 6
-    depths from the paddle, those on the flat)."""
+    depths from the paddle, those on the flat).
+
+    ``scheme`` defaults to WCSPH with the water's laminar viscosity (``sph.Laminar``, nu 1e-6
+    m^2/s) instead of Monaghan's artificial one: with alpha = 0.02 the artificial viscosity acts
+    like nu = alpha h c0 / 10 ~ 2e-3 m^2/s at dx = 0.03 m, which damps a wave by Lamb's
+    e^{-2 nu k^2 t} (5-8 % per wavelength at kh = 1, ~30 % at kh = 2; RESULTS.md, waves); with
+    the laminar term the measured height stays level along the flume. ``alpha`` is then unused.
+    """
     from ..blocks import paths
 
     d = _positive("wave_flume: water_depth", water_depth)
@@ -568,7 +579,8 @@ def wave_flume(*, dx: float = 0.03, water_depth: float = 0.3, wave: str = "regul
         gauge_x = [g * d for g in (1, 2, 4, 6) if g * d < flat_length - sponge_length]
     scene = piston_wavemaker(dx=dx, water_depth=d, flat_length=flat_length, beach_slope=beach_slope, signal=sig,
                              sponge_length=sponge_length, sponge_strength=sponge_strength, gauge_x=gauge_x,
-                             coupling=coupling, h_factor=h_factor, alpha=alpha, periodic_y=periodic_y, period=T)
+                             coupling=coupling, h_factor=h_factor, alpha=alpha, periodic_y=periodic_y, period=T,
+                             scheme=scheme)
     return scene.replace(meta=scene.meta.with_items(name="wave_flume", wave=wave))
 
 
