@@ -1178,8 +1178,10 @@ def sec_waves(doc: Doc):
               "against `base`: the scene's defaults, alpha 0.02, Fourtakas diffusion, Wendland C2, Adami walls, "
               "impulsive start). H/S at 1 and 6 depths from the paddle (fit from the front's arrival + 1 period; "
               "linear theory 0.982); `decay / L`: loss of height per wavelength from the slope of ln H over the "
-              "gauges at 1-6 depths; `viscous decay / L`: Lamb's e^{-2 nu k^2 L / c_g} for the effective viscosity "
-              "`nu` (alpha h c0 / 10 for Monaghan's term, the laminar nu otherwise).")
+              "gauges at 1-6 depths; `bulk visc. / L`: Lamb's e^{-2 nu k^2 L / c_g} for the effective viscosity "
+              "`nu` (alpha h c0 / 10 for Monaghan's term, the laminar nu otherwise); `bed friction / L`: a laminar "
+              "Stokes layer of that nu on a no-slip bed (`wall visc.` 1; Hunt 1952: k_i = omega^3 delta / "
+              "(4 g c_g sinh^2 kh), delta = sqrt(2 nu / omega)).")
         rows = []
         for r in recs:
             g = {round(x["x_over_depth"]): {f["delay_periods"]: f for f in x["fits"]} for x in r["gauges"]}
@@ -1193,12 +1195,15 @@ def sec_waves(doc: Doc):
                 name = (name + "+" if name else "") + "diffusion " + r["diffusion"]
             if abs(float(r.get("alpha", 0.02)) - 0.02) > 1e-6:
                 name = (name + "+" if name else "") + f"alpha {float(r['alpha']):.3g}"
+            if float(r.get("wall_viscosity", 1.0)) == 0.0:
+                name = (name + "+" if name else "") + "free-slip walls"
             if r.get("coupling") != "boundary_particles":
                 name = (name + "+" if name else "") + str(r.get("coupling"))
-            rows.append([name or "base", r.get("nu_effective"), hs(1), hs(2), hs(4), hs(6), r.get("decay_per_wavelength"),
-                         r.get("viscous_decay_per_wavelength"), r.get("k_fit"), r.get("wall_s"), r.get("date")])
-        doc.p(table(["variant", "nu eff. [m^2/s]", "H/S 1 d", "H/S 2 d", "H/S 4 d", "H/S 6 d", "decay / L",
-                     "viscous decay / L", "k fit (3.333)", "wall s", "date"], rows))
+            rows.append([name or "base", r.get("nu_effective"), r.get("wall_viscosity"), hs(1), hs(2), hs(4), hs(6),
+                         r.get("decay_per_wavelength"), r.get("viscous_decay_per_wavelength"),
+                         r.get("bed_friction_decay_per_wavelength"), r.get("k_fit"), r.get("wall_s"), r.get("date")])
+        doc.p(table(["variant", "nu eff. [m^2/s]", "wall visc.", "H/S 1 d", "H/S 2 d", "H/S 4 d", "H/S 6 d", "decay / L",
+                     "bulk visc. / L", "bed friction / L", "k fit (3.333)", "wall s", "date"], rows))
     recs = doc.records("wave_absorption.jsonl", "python experiments/wave_absorption.py --kh 1.0")
     if recs is not None:
         doc.p("Reflection from the flume's end (`experiments/wave_absorption.py`): regular waves of target height "

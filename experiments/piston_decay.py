@@ -145,8 +145,18 @@ def analyse(npz: str, delays=(0, 1, 2)) -> dict:
     nu_art = 0.0 if laminar else (float(d["alpha"]) if "alpha" in d else 0.02) * h * c0 / 10.0
     nu = nu_art + ((float(d["nu"]) if "nu" in d else 1e-6) if laminar else 0.0)
     predicted = float(1 - np.exp(-2 * nu * wave["k"] ** 2 * L / wave["cg"]))
+    # a no-slip bed with that viscosity (FluidParams.wall_viscosity = 1): the Stokes layer's
+    # dissipation (1/4) rho u_b^2 omega delta, delta = sqrt(2 nu / omega), u_b = a omega / sinh kh,
+    # against the energy flux (1/2) rho g a^2 c_g: amplitude decay rate
+    # k_i = omega^3 delta / (4 g c_g sinh^2 kh) (Hunt 1952's laminar bed friction)
+    wv = float(d["wall_viscosity"]) if "wall_viscosity" in d else 1.0
+    om = wave["omega"]
+    delta = np.sqrt(2 * nu * wv / om)
+    k_i = om ** 3 * delta / (4 * 9.81 * wave["cg"] * np.sinh(KH) ** 2)
+    bed = float(1 - np.exp(-k_i * L))
     return dict(kh=KH, depth=DEPTH, stroke=stroke, period=T, dx=float(d["dx"]) if "dx" in d else None,
-                decay_per_wavelength=decay, viscous_decay_per_wavelength=predicted, nu_effective=nu,
+                decay_per_wavelength=decay, viscous_decay_per_wavelength=predicted, bed_friction_decay_per_wavelength=bed,
+                nu_effective=nu,
                 coupling=str(d["coupling"]) if "coupling" in d else None, n_fluid=int(d["n"]),
                 alpha=float(d["alpha"]) if "alpha" in d else 0.02,
                 wall_viscosity=float(d["wall_viscosity"]) if "wall_viscosity" in d else 1.0,

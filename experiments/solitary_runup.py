@@ -1,7 +1,7 @@
 """Solitary wave from Goring's piston path: shape and celerity after 10 depths, and run-up on a
 plane beach against Synolakis (1987).
 
-``scenes.wave_flume(wave="solitary")``: depth d = 0.3 m, a flat of 10 d, then a plane beach of
+``scenes.wave_flume(wave="solitary")``: depth d = 0.3 m, a flat of 14 d, then a plane beach of
 slope ``--beach-slope`` (default tan 20 deg, non-breaking up to H/d ~ 0.27 by Synolakis'
 criterion H/d < 0.818 (cot beta)^(-10/9)). Gauges at 2, 5 and 10 depths record the wave:
 
@@ -10,7 +10,9 @@ criterion H/d < 0.818 (cot beta)^(-10/9)). Gauges at 2, 5 and 10 depths record t
 * shape at 10 depths: the RMS difference, over |t - t_crest| < 2 / (K c), between the record and
   the Boussinesq profile H sech^2(K c (t - t_crest)) of the same height H, relative to H;
 * maximum run-up (``observables.runup``: the highest water particle within 2 dx of the beach)
-  against R / d = 2.831 sqrt(cot beta) (H / d)^1.25.
+  against R / d = 2.831 sqrt(cot beta) (H / d)^1.25, for the target H and for the crest height
+  measured at 10 depths (the wave that reaches the toe 4 depths later: the law's own check,
+  apart from the generation).
 
 One JSON line per run, appended to ``results/solitary_runup.jsonl``.
 
@@ -41,20 +43,18 @@ def run(dx: float, ratio: float, beach_slope: float, alpha: float, t_after: floa
 
     H = ratio * DEPTH
     gx = [2 * DEPTH, 5 * DEPTH, 10 * DEPTH]  # the paddle itself advances 1 d (its stroke) at H/d = 0.2
-    scene = rj.scenes.wave_flume(dx=dx, water_depth=DEPTH, wave="solitary", wave_height=H, flat_length=10 * DEPTH,
-                                 beach_slope=beach_slope, gauge_x=gx, alpha=alpha)
-    fl = scene.params.fluid.replace(wall_viscosity=scene.params.fluid.alpha * 0 + wall_viscosity)
-    if laminar:  # water's viscosity instead of Monaghan's artificial one
-        import dataclasses
-
-        scene = scene.replace(config=scene.config.replace(
-            scheme=dataclasses.replace(scene.config.scheme, viscosity=rj.sph.Laminar())))
-        fl = fl.replace(nu=fl.nu * 0 + 1e-6)
+    flat = 14 * DEPTH  # the last gauge 4 depths before the toe: clear of the beach's reflection
+    # the water's laminar viscosity (nu 1e-6, wave_flume's default) or Monaghan's artificial one
+    scheme = rj.WCSPH(viscosity=rj.sph.Laminar()) if laminar else rj.WCSPH()
+    scene = rj.scenes.wave_flume(dx=dx, water_depth=DEPTH, wave="solitary", wave_height=H, flat_length=flat,
+                                 beach_slope=beach_slope, gauge_x=gx, alpha=alpha, scheme=scheme)
+    fl = scene.params.fluid.replace(wall_viscosity=scene.params.fluid.alpha * 0 + wall_viscosity,
+                                    nu=scene.params.fluid.nu * 0 + 1e-6)
     scene = scene.replace(params=scene.params.replace(fluid=fl))
     sig = paths.solitary(wave_height=H, water_depth=DEPTH)
     K, c = sig.info["K"], sig.info["celerity"]
-    # the crest leaves the paddle at about t_crest_at_paddle, reaches the toe 10 d later
-    t_toe = sig.info["t_crest_at_paddle"] + 10 * DEPTH / c
+    # the crest leaves the paddle at about t_crest_at_paddle and reaches the toe flat / c later
+    t_toe = sig.info["t_crest_at_paddle"] + flat / c
     t_end = t_toe + t_after
     t0 = time.perf_counter()
     res = rj.simulate(scene, t_end=t_end, frame_dt=0.01, observe=scene_observer(scene.meta), progress=False)
@@ -65,7 +65,7 @@ def run(dx: float, ratio: float, beach_slope: float, alpha: float, t_after: floa
     crests, t_crest = [], []
     for j, x in enumerate(gx):
         # the incident crest: the maximum before the beach reflection could return to the gauge
-        t_back = t_toe + (10 * DEPTH - x) / c + 0.3
+        t_back = t_toe + (flat - x) / c
         m = t < t_back
         i = int(np.argmax(np.where(m, eta[:, j], -np.inf)))
         # parabolic refinement of the crest time and height on the 0.01 s frames
@@ -85,12 +85,15 @@ def run(dx: float, ratio: float, beach_slope: float, alpha: float, t_after: floa
     shape_rms = float(np.sqrt(np.mean((eta[win, 2] - prof) ** 2)) / Hm)
     R = float(np.max(ru))
     R_theory = synolakis_runup(wave_height=H, depth=DEPTH, beach_slope=beach_slope)
+    R_measured_H = synolakis_runup(wave_height=Hm, depth=DEPTH, beach_slope=beach_slope)
     return dict(dx=dx, depth=DEPTH, H=H, H_over_d=ratio, beach_slope=beach_slope, alpha=alpha,
                 viscosity="laminar 1e-6" if laminar else "artificial", wall_viscosity=wall_viscosity,
                 H_over_dx=H / dx, depth_over_dx=DEPTH / dx,
                 gauges=gx, crest=crests, crest_over_H=[cr / H for cr in crests], t_crest=t_crest,
                 celerity=cel, celerity_theory=c, celerity_rel_error=cel / c - 1,
                 shape_rms_over_H=shape_rms, runup=R, runup_synolakis=R_theory, runup_rel_error=R / R_theory - 1,
+                runup_synolakis_measured_H=R_measured_H, runup_rel_error_measured_H=R / R_measured_H - 1,
+                flat_length=flat,
                 breaking_limit_H_over_d=0.818 * (1 / beach_slope) ** (-10 / 9),
                 n_fluid=scene.config.n_fluid, t_end=t_end, wall_s=wall, load=os.getloadavg()[0])
 
