@@ -1176,7 +1176,8 @@ def sec_waves(doc: Doc):
         doc.p("A/B of the candidate causes of low and decaying waves (`experiments/piston_decay.py`, kh = 1, depth "
               "0.3 m, stroke 0.04 m, dx 0.03 m, h = 1.5 dx, boundary-particle paddle, t_end 6.4 s; one change per row "
               "against `base`: the scene's defaults, alpha 0.02, Fourtakas diffusion, Wendland C2, Adami walls, "
-              "impulsive start). H/S at 1 and 6 depths from the paddle (fit from the front's arrival + 1 period; "
+              "impulsive start). H/S at 1-6 depths from the paddle (fit from the front's arrival + 1 period, + 2 "
+              "for `ramp2`; "
               "linear theory 0.982); `decay / L`: loss of height per wavelength from the slope of ln H over the "
               "gauges at 1-6 depths; `bulk visc. / L`: Lamb's e^{-2 nu k^2 L / c_g} for the effective viscosity "
               "`nu` (alpha h c0 / 10 for Monaghan's term, the laminar nu otherwise); `bed friction / L`: a laminar "
@@ -1186,9 +1187,11 @@ def sec_waves(doc: Doc):
         for r in recs:
             g = {round(x["x_over_depth"]): {f["delay_periods"]: f for f in x["fits"]} for x in r["gauges"]}
 
-            def hs(d):
+            ramped = "ramp2" in (r.get("variant") or "")
+
+            def hs(d):  # a ramped paddle reaches full stroke 2 periods later: its delay-2 fit
                 f = g.get(d, {})
-                q = f.get(1) or f.get(0) or {}
+                q = (f.get(2) if ramped else None) or f.get(1) or f.get(0) or {}
                 return q.get("H_over_S")
             name = r.get("variant") or ""
             if r.get("diffusion", "fourtakas") != "fourtakas":
@@ -1211,24 +1214,29 @@ def sec_waves(doc: Doc):
               "before a 1:2 beach, or into the bare beach; `Kr` from four gauges by Mansard & Funke's least squares "
               "(`validation.reflection`) over the periods after the reflection returned; `H_I` the incident height "
               "in that window and before any reflection arrived. Target Kr <= 5 %.")
-        rows = [[r["kh"], r["dx"], r["sponge"], r["sponge_wavelengths"], r["strength"], r["sponge_strength_over_omega"],
+        rows = [[r["kh"], r["dx"], r.get("viscosity", "artificial"), r["sponge"], r["sponge_wavelengths"], r["strength"], r["sponge_strength_over_omega"],
                  r["Kr"], r["H_incident"], r.get("H_incident_before_reflection"), r["target_height"], r["condition"],
                  r["periods"], r["n_fluid"], r["wall_s"], r.get("date")] for r in recs]
-        doc.p(table(["kh", "dx [m]", "sponge", "length / L", "strength [1/s]", "strength / omega", "Kr", "H_I [m]",
+        doc.p(table(["kh", "dx [m]", "viscosity", "sponge", "length / L", "strength [1/s]", "strength / omega", "Kr", "H_I [m]",
                      "H_I before refl. [m]", "target H [m]", "cond.", "periods", "n_fluid", "wall s", "date"], rows))
     recs = doc.records("solitary_runup.jsonl", "python experiments/solitary_runup.py --dx 0.03")
     if recs is not None:
         doc.p("Solitary waves from Goring's piston path (`experiments/solitary_runup.py`, depth 0.3 m, a flat of 10 "
-              "depths, then a plane beach): crest height at 2, 5 and 10 depths over the target H; celerity between "
+              "or 14 depths, then a plane beach): crest height at 2, 5 and 10 depths over the target H; celerity between "
               "5 and 10 depths against sqrt(g (d + H)); the record at 10 depths against the Boussinesq profile of "
               "its own height (RMS over H); maximum run-up against Synolakis (1987) R/d = 2.831 sqrt(cot beta) "
               "(H/d)^1.25 (target: within 10 %).")
-        rows = [[r["dx"], r["H_over_d"], r["H_over_dx"], r["beach_slope"], r["alpha"], *r["crest_over_H"],
+        doc.p("`flat`: rows with a 10-depth flat put the last gauge at the beach's toe, where the reflection "
+              "from the steep beach adds to the crest and spoils the celerity (kept as measured; the 14-depth flat "
+              "leaves 4 depths). `R err. (H meas.)`: the run-up against Synolakis for the crest height measured "
+              "at 10 depths (the law's own check, apart from the generation).")
+        rows = [[r["dx"], r.get("viscosity", "artificial"), r.get("wall_viscosity", 1.0), r.get("flat_length", 3.0) / r["depth"],
+                 r["H_over_d"], r["H_over_dx"], r["beach_slope"], *r["crest_over_H"],
                  r["celerity_rel_error"], r["shape_rms_over_H"], r["runup"], r["runup_synolakis"], r["runup_rel_error"],
-                 r["n_fluid"], r["wall_s"], r.get("date")] for r in recs]
-        doc.p(table(["dx [m]", "H/d", "H/dx", "tan beta", "alpha", "crest/H 2 d", "crest/H 5 d", "crest/H 10 d",
-                     "celerity err.", "shape RMS/H", "R [m]", "R Synolakis [m]", "R err.", "n_fluid", "wall s", "date"],
-                    rows))
+                 r.get("runup_rel_error_measured_H", "–"), r["n_fluid"], r["wall_s"], r.get("date")] for r in recs]
+        doc.p(table(["dx [m]", "viscosity", "wall visc.", "flat / d", "H/d", "H/dx", "tan beta", "crest/H 2 d",
+                     "crest/H 5 d", "crest/H 10 d", "celerity err.", "shape RMS/H", "R [m]", "R Synolakis [m]", "R err.",
+                     "R err. (H meas.)", "n_fluid", "wall s", "date"], rows))
 
 
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
