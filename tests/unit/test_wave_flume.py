@@ -59,3 +59,20 @@ def test_signal_depth_must_match_the_flume():
     sig = paths.solitary(wave_height=0.03, water_depth=0.4)
     with pytest.raises(ValueError, match="water_depth"):
         rj.scenes.piston_wavemaker(dx=0.1, water_depth=0.3, signal=sig)
+
+
+def test_wave_flume_config_goes_to_json():
+    # the HDF5 writer stores the static config as JSON: paths (long tables by shape and digest)
+    # and sponges included, within an HDF5 attribute's 64 KiB
+    import json
+
+    from rockjax.io.hdf5 import config_to_json
+
+    s = rj.scenes.wave_flume(dx=0.1, wave="jonswap", duration=120.0, paddle="flap", sponge_length=0.5,
+                             flat_length=2.0)
+    text = config_to_json(s.config)
+    assert len(text) < 64 * 1024
+    d = json.loads(text)
+    (p,) = d["blocks"]["paths"]
+    assert p["times"]["shape"] == [len(s.config.blocks.paths[0].times)] and len(p["times"]["sha1"]) == 40
+    assert d["absorbers"][0]["start"] == [1.5, 0.0, 0.0]

@@ -26,6 +26,7 @@ from __future__ import annotations
 import collections.abc
 import dataclasses
 import enum
+import hashlib
 import json
 from typing import Any
 
@@ -53,6 +54,11 @@ def _jsonable(obj: Any):
         return [_jsonable(o) for o in obj]
     if isinstance(obj, (np.generic,)):
         return obj.item()
+    if isinstance(obj, np.ndarray):  # a path's table: short ones in full, long ones by shape and digest
+        if obj.size <= 64:
+            return obj.tolist()
+        return {"shape": list(obj.shape), "first": obj.ravel()[0].item(), "last": obj.ravel()[-1].item(),
+                "sha1": hashlib.sha1(np.ascontiguousarray(obj).tobytes()).hexdigest()}
     return obj
 
 
