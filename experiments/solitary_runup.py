@@ -35,7 +35,7 @@ DEPTH = 0.3
 
 
 def run(dx: float, ratio: float, beach_slope: float, alpha: float, t_after: float, *, laminar: bool = False,
-        wall_viscosity: float = 1.0) -> dict:
+        wall_viscosity: float = 1.0, settle: float = 0.0) -> dict:
     import rockjax as rj
     from rockjax.blocks import paths
     from rockjax.observables import scene_observer
@@ -51,6 +51,8 @@ def run(dx: float, ratio: float, beach_slope: float, alpha: float, t_after: floa
     fl = scene.params.fluid.replace(wall_viscosity=scene.params.fluid.alpha * 0 + wall_viscosity,
                                     nu=scene.params.fluid.nu * 0 + 1e-6)
     scene = scene.replace(params=scene.params.replace(fluid=fl))
+    if settle > 0:  # relax the start lattice first (its slump sends a depression wave along the flat)
+        scene = rj.scenes.settle(scene, t_settle=settle)
     sig = paths.solitary(wave_height=H, water_depth=DEPTH)
     K, c = sig.info["K"], sig.info["celerity"]
     # the crest leaves the paddle at about t_crest_at_paddle and reaches the toe flat / c later
@@ -87,7 +89,7 @@ def run(dx: float, ratio: float, beach_slope: float, alpha: float, t_after: floa
     R_theory = synolakis_runup(wave_height=H, depth=DEPTH, beach_slope=beach_slope)
     R_measured_H = synolakis_runup(wave_height=Hm, depth=DEPTH, beach_slope=beach_slope)
     return dict(dx=dx, depth=DEPTH, H=H, H_over_d=ratio, beach_slope=beach_slope, alpha=alpha,
-                viscosity="laminar 1e-6" if laminar else "artificial", wall_viscosity=wall_viscosity,
+                viscosity="laminar 1e-6" if laminar else "artificial", wall_viscosity=wall_viscosity, settle_s=settle,
                 H_over_dx=H / dx, depth_over_dx=DEPTH / dx,
                 gauges=gx, crest=crests, crest_over_H=[cr / H for cr in crests], t_crest=t_crest,
                 celerity=cel, celerity_theory=c, celerity_rel_error=cel / c - 1,
@@ -106,11 +108,12 @@ def main():
     ap.add_argument("--alpha", type=float, default=0.02, help="artificial viscosity")
     ap.add_argument("--laminar", action="store_true", help="sph.Laminar viscosity (nu 1e-6) instead of alpha")
     ap.add_argument("--wall-viscosity", type=float, default=1.0, help="FluidParams.wall_viscosity (0: free slip)")
+    ap.add_argument("--settle", type=float, default=0.0, help="s of lattice settling before the run (scenes.settle)")
     ap.add_argument("--t-after", type=float, default=1.5, help="s simulated after the crest reaches the toe")
     ap.add_argument("--out", default=str(HERE / "results" / "solitary_runup.jsonl"))
     a = ap.parse_args()
     rec = run(a.dx, a.height_ratio, a.beach_slope, a.alpha, a.t_after, laminar=a.laminar,
-              wall_viscosity=a.wall_viscosity)
+              wall_viscosity=a.wall_viscosity, settle=a.settle)
     print(json.dumps(rec))
     rec["date"] = time.strftime("%Y-%m-%d")
     with open(a.out, "a") as f:
