@@ -21,13 +21,13 @@ their ratios to the fit. One JSON line per run, appended to ``results/impulse_wa
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import pathlib
 import time
 
 import numpy as np
+from jsonl_out import emit
 
 HERE = pathlib.Path(__file__).resolve().parent
 
@@ -100,10 +100,7 @@ def main():
     a = ap.parse_args()
     rec = run(slope=a.slope, length=a.length, density=a.density, depth=a.depth, dx=a.dx, start=a.start, width=a.width,
               friction=a.friction)
-    print(json.dumps(rec))
-    rec["date"] = time.strftime("%Y-%m-%d")
-    with open(a.out, "a") as f:
-        f.write(json.dumps(rec) + "\n")
+    emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown=rec)
 
 
 if __name__ == "__main__":

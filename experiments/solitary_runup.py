@@ -22,13 +22,13 @@ One JSON line per run, appended to ``results/solitary_runup.jsonl``.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import pathlib
 import time
 
 import numpy as np
+from jsonl_out import emit
 
 HERE = pathlib.Path(__file__).resolve().parent
 DEPTH = 0.3
@@ -36,6 +36,8 @@ DEPTH = 0.3
 
 def run(dx: float, ratio: float, beach_slope: float, alpha: float, t_after: float, *, laminar: bool = False,
         wall_viscosity: float = 1.0, settle: float = 0.0) -> dict:
+    import jax.numpy as jnp
+
     import rockjax as rj
     from rockjax.blocks import paths
     from rockjax.observables import scene_observer
@@ -48,8 +50,8 @@ def run(dx: float, ratio: float, beach_slope: float, alpha: float, t_after: floa
     scheme = rj.WCSPH(viscosity=rj.sph.Laminar()) if laminar else rj.WCSPH()
     scene = rj.scenes.wave_flume(dx=dx, water_depth=DEPTH, wave="solitary", wave_height=H, flat_length=flat,
                                  beach_slope=beach_slope, gauge_x=gx, alpha=alpha, scheme=scheme)
-    fl = scene.params.fluid.replace(wall_viscosity=scene.params.fluid.alpha * 0 + wall_viscosity,
-                                    nu=scene.params.fluid.nu * 0 + 1e-6)
+    fl = scene.params.fluid
+    fl = fl.replace(wall_viscosity=jnp.asarray(wall_viscosity, fl.alpha.dtype), nu=jnp.asarray(1e-6, fl.nu.dtype))
     scene = scene.replace(params=scene.params.replace(fluid=fl))
     if settle > 0:  # relax the start lattice first (its slump sends a depression wave along the flat)
         scene = rj.scenes.settle(scene, t_settle=settle)
@@ -114,10 +116,7 @@ def main():
     a = ap.parse_args()
     rec = run(a.dx, a.height_ratio, a.beach_slope, a.alpha, a.t_after, laminar=a.laminar,
               wall_viscosity=a.wall_viscosity, settle=a.settle)
-    print(json.dumps(rec))
-    rec["date"] = time.strftime("%Y-%m-%d")
-    with open(a.out, "a") as f:
-        f.write(json.dumps(rec) + "\n")
+    emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown=rec)
 
 
 if __name__ == "__main__":

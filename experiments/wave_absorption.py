@@ -15,12 +15,12 @@ run, appended to ``results/wave_absorption.jsonl``.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import pathlib
 import time
 
 import numpy as np
+from jsonl_out import emit
 
 HERE = pathlib.Path(__file__).resolve().parent
 DEPTH, HEIGHT = 0.3, 0.02
@@ -28,6 +28,8 @@ DEPTH, HEIGHT = 0.3, 0.02
 
 def run(kh: float, dx: float, *, sponge_wavelengths: float, strength: float, sponge: bool, height: float,
         periods_after: float, laminar: bool = False) -> dict:
+    import jax.numpy as jnp
+
     import rockjax as rj
     from rockjax.blocks import paths
     from rockjax.observables import scene_observer
@@ -52,7 +54,8 @@ def run(kh: float, dx: float, *, sponge_wavelengths: float, strength: float, spo
 
         scene = scene.replace(config=scene.config.replace(
             scheme=dataclasses.replace(scene.config.scheme, viscosity=rj.sph.Laminar())),
-            params=scene.params.replace(fluid=scene.params.fluid.replace(nu=scene.params.fluid.nu * 0 + 1e-6)))
+            params=scene.params.replace(fluid=scene.params.fluid.replace(
+                nu=jnp.asarray(1e-6, scene.params.fluid.nu.dtype))))
     t0 = time.perf_counter()
     res = rj.simulate(scene, t_end=t_end, frame_dt=T / 25, observe=scene_observer(scene.meta), progress=False)
     wall = time.perf_counter() - t0
@@ -92,10 +95,7 @@ def main():
     strength = 2 * omega if a.strength is None else a.strength
     rec = run(a.kh, a.dx, sponge_wavelengths=a.sponge_wavelengths, strength=strength, sponge=not a.no_sponge,
               height=a.height, periods_after=a.periods_after, laminar=a.laminar)
-    print(json.dumps(rec))
-    rec["date"] = time.strftime("%Y-%m-%d")
-    with open(a.out, "a") as f:
-        f.write(json.dumps(rec) + "\n")
+    emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown=rec)
 
 
 if __name__ == "__main__":

@@ -567,8 +567,7 @@ def wave_flume(*, dx: float = 0.03, water_depth: float = 0.3, wave: str = "regul
         if wave_times is None or wave_displacement is None:
             raise ValueError("wave_flume: wave = 'table' needs wave_times (s) and wave_displacement (m) arrays")
         sig = paths.PaddleSignal(np.asarray(wave_times, float), np.asarray(wave_displacement, float), d, paddle,
-                                 dict(generator="table"))
-        paths.Table(sig.times, sig.displacement)  # validates the table (times increasing, one value per time)
+                                 dict(generator="table"))  # checked where its path is made (Table / Flap)
     elif wave == "csv":
         if not wave_file:
             raise ValueError("wave_flume: wave = 'csv' needs wave_file, a CSV of t [s], displacement [m]")
