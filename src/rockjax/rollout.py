@@ -219,7 +219,12 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
 def rollout(config: Config, state: State, params: Params, n_blocks: int, *, checkpoint: bool = True,
             observe=None, chunk: Optional[int] = None, rebuild_on_displacement: bool = True,
             checkpoint_levels: int = 2, tuning=None):
-    """Functional form of ``make_rollout(config, n_blocks, ...)(state, params)``."""
+    """Functional form of ``make_rollout(config, n_blocks, ...)(state, params)``; concrete
+    ``params`` are checked on the host first (``scenes.check_param_values``: a ValueError naming
+    the field, before anything is compiled)."""
+    from .scenes.base import check_param_values
+
+    check_param_values(params)
     return make_rollout(config, n_blocks, checkpoint=checkpoint, observe=observe, chunk=chunk,
                         rebuild_on_displacement=rebuild_on_displacement,
                         checkpoint_levels=checkpoint_levels, tuning=tuning)(state, params)
