@@ -112,8 +112,7 @@ def scheduled_step(config: Config, *, rebuild_on_displacement: bool = True, peri
     ``advance``. With the default period and a state whose counter started at a block boundary
     (rollouts start at 0) it takes exactly the steps ``make_rollout`` takes. The host driver scans
     it between output frames (any number of steps, with a longer ``period``: the displacement
-    trigger keeps the list valid, the period only bounds how long particles go un-sorted), and
-    replays a failed chunk with it to name the first bad step.
+    trigger keeps the list valid, the period only bounds how long particles go un-sorted).
     """
     inner = _step_in_block(config, rebuild_on_displacement)
     period = config.rebuild_every if period is None else int(period)
