@@ -51,7 +51,6 @@ def _forget_compiled():
     from rockjax import driver
 
     driver._compiled_chunk.cache_clear()
-    driver._compiled_single_step.cache_clear()
     jax.clear_caches()
 
 

@@ -4,7 +4,8 @@
 ``run`` takes a built-in scene name (``rockjax list``) or a TOML scene file (a path ending in
 ``.toml`` or any existing file; see ``rockjax.scenes.scenefile``). Flags given on the command line
 override the file's values. ``--dry-run`` prints one JSON line (counts, dt, steps, stages, memory
-estimate) without running. Exit status: 0 done, 1 the run failed, 2 bad input.
+estimate) without running. Exit status: 0 done, 1 the run failed, 2 bad input (refused before
+anything is compiled, also with ``--dry-run``: one line on stderr naming the field or flag).
 
 The parser is built by :func:`build_parser`, one ``_add_<command>`` function per subcommand;
 a new subcommand is one more such function registered there.
@@ -15,6 +16,7 @@ from __future__ import annotations
 import argparse
 import inspect
 import json
+import math
 import os
 import sys
 
@@ -63,15 +65,34 @@ def _load(args):
     return scene, (args.t_end if args.t_end is not None else 1.0), args.frame_dt, args.out
 
 
+def _refuse(exc) -> int:
+    """Print ``rockjax: <message>`` as one line on stderr; exit status 2 (bad input)."""
+    print("rockjax: " + " ".join(str(exc).split()), file=sys.stderr)
+    return 2
+
+
+def _check_flags(args) -> None:
+    """Refuse flags no run can use (ValueError naming the flag), before a scene is built."""
+    if args.rebuild_period is not None and args.rebuild_period < 1:
+        raise ValueError(f"--rebuild-period must be a positive number of steps (got {args.rebuild_period})")
+    if not (args.settle >= 0 and math.isfinite(args.settle)):
+        raise ValueError(f"--settle must be a finite time >= 0 in seconds (got {args.settle})")
+    for flag, value in (("--t-end", args.t_end), ("--dx", args.dx), ("--frame-dt", args.frame_dt)):
+        if value is not None and not (value > 0 and math.isfinite(value)):
+            raise ValueError(f"{flag} must be a positive finite number in SI units (got {value})")
+
+
 def _cmd_run(args) -> int:
-    from .driver import SimulationError, simulate
+    from .driver import SimulationError, check_out, check_times, simulate
     from .observables import scene_observer
 
     try:
+        _check_flags(args)
         scene, t_end, frame_dt, out = _load(args)
-    except (LookupError, ValueError) as e:
-        print(f"rockjax: {e}", file=sys.stderr)
-        return 2
+        check_times(t_end, frame_dt, names=("t_end (--t-end)", "frame_dt (--frame-dt)"))
+        check_out(out)
+    except (LookupError, ValueError, OSError) as e:
+        return _refuse(e)
     info = describe(scene, t_end)
     print(" ".join(f"{k}={v}" for k, v in info.items()), file=sys.stderr)
     if args.dry_run:
@@ -83,12 +104,13 @@ def _cmd_run(args) -> int:
         try:
             scene = settle(scene, t_settle=args.settle, progress=not args.quiet and None)
         except ValueError as e:
-            print(f"rockjax: {e}", file=sys.stderr)
-            return 2
+            return _refuse(e)
     try:
         result = simulate(scene, t_end=t_end, out=out, frame_dt=frame_dt, rebuild_period=args.rebuild_period,
                           progress=not args.quiet and None, keep_frames=False, observe=scene_observer(scene.meta))
-    except (SimulationError, ValueError) as e:
+    except ValueError as e:  # refused before the run started (simulate checks its inputs first)
+        return _refuse(e)
+    except SimulationError as e:
         print(f"rockjax: {e}", file=sys.stderr)
         return 1
     summary = {"scene": scene.name, "t_end": float(result.times[-1]), "frames": len(result.times), "out": out,

@@ -1,6 +1,7 @@
 """The host driver: ``simulate(scene, t_end=...)`` runs jitted chunks, checks status bits after
 each, regrows buffers and reruns a chunk on overflow, raises on fatal problems with the step and
-the cause, writes frames (HDF5 or memory) and shows progress.
+the cause, writes frames (HDF5 or memory) and shows progress. Inputs no run can use (times, the
+output path, params) are refused with a ValueError before anything is compiled.
 
 A chunk is the steps between two output frames: ``lax.scan`` of ``rollout.scheduled_step``, which
 rebuilds the neighbour list when a particle would move more than ``skin / 2`` (the displacement
@@ -29,20 +30,65 @@ from .scenes.base import Scene, check_params, empty_neighbours
 from .step import prime, refresh
 from .types import Config, Kind, State, Status
 
-__all__ = ["simulate", "Result", "SimulationError", "host_frame", "resize", "check_block_dt"]
+__all__ = ["simulate", "Result", "SimulationError", "host_frame", "resize", "check_block_dt", "check_times",
+           "check_out"]
 
 
 class SimulationError(RuntimeError):
-    """A run stopped on a fatal status bit; ``step`` and ``status`` say where and why.
+    """A run stopped on a fatal status bit; ``step``, ``status`` and ``fields`` say where and why.
 
-    ``step`` is the first step that set a fatal bit (the driver replays the failed chunk one step
-    at a time to find it); ``status`` holds the bits OR-ed over the chunk.
+    ``step`` is the first step that set a fatal bit (each chunk carries the index of its first
+    such step through its scan); ``status`` holds the bits OR-ed over the chunk; ``fields`` the
+    state fields (``"particles.v"``, ``"blocks.x"``, ...) that held a NaN or Inf after that step.
     """
 
-    def __init__(self, message: str, *, step: int, status: int):
+    def __init__(self, message: str, *, step: int, status: int, fields: tuple = ()):
         super().__init__(message)
         self.step = step
         self.status = status
+        self.fields = tuple(fields)
+
+
+def check_times(t_end, frame_dt=None, *, names=("t_end", "frame_dt")) -> None:
+    """Refuse a run's times (host, before anything is compiled): ``t_end`` [s] must be positive
+    and finite, ``frame_dt`` [s] (None: the default) positive, finite and at most ``t_end`` (a run
+    ends on the first whole frame at or after ``t_end``, so a longer frame would run past it).
+    ``names``: how the ValueError names the two (the CLI gives its flags)."""
+    def number(v):
+        try:
+            return float(v)
+        except (TypeError, ValueError):
+            return math.nan
+
+    t = number(t_end)
+    if not (t > 0 and math.isfinite(t)):
+        raise ValueError(f"{names[0]} must be a positive finite time in seconds (got {t_end!r})")
+    if frame_dt is None:
+        return
+    f = number(frame_dt)
+    if not (f > 0 and math.isfinite(f)):
+        raise ValueError(f"{names[1]} must be a positive finite time in seconds (got {frame_dt!r})")
+    if f > t * (1 + 1e-9):
+        raise ValueError(f"{names[1]} = {f:g} s exceeds {names[0]} = {t:g} s (the run ends on a whole frame); "
+                         f"use {names[1]} <= {names[0]}")
+
+
+def check_out(out) -> None:
+    """Refuse an output path the run could not write (host, before the run starts): its folder
+    must exist and be writable, and the path must not be a folder or a read-only file. A
+    ValueError naming ``out`` and what to change."""
+    import os
+
+    if out is None:
+        return
+    path = os.fspath(out)
+    folder = os.path.dirname(os.path.abspath(path))
+    if os.path.isdir(path):
+        raise ValueError(f"out = {path!r} is a folder; give a file path such as {os.path.join(path, 'run.h5')!r}")
+    if not os.path.isdir(folder):
+        raise ValueError(f"out = {path!r}: the folder {folder!r} does not exist; create it or write elsewhere")
+    if not os.access(folder, os.W_OK | os.X_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
+        raise ValueError(f"out = {path!r} is not writable (permissions); write elsewhere")
 
 
 @dataclasses.dataclass
@@ -105,33 +151,46 @@ def resize(state: State, config: Config) -> State:
 DEFAULT_REBUILD_PERIOD = 32
 
 
+#: the state fields whose NaN / Inf a SimulationError names (bit k of the carried field mask)
+_FIELDS = (("particles", "x"), ("particles", "v"), ("particles", "rho"), ("particles", "p"), ("particles", "a"),
+           ("blocks", "x"), ("blocks", "v"), ("blocks", "q"), ("blocks", "omega"))
+
+
+def _non_finite_fields(state: State) -> jax.Array:
+    """Bit mask (int32) of the ``_FIELDS`` holding a NaN or Inf (in jit)."""
+    mask = jnp.zeros((), jnp.int32)
+    for k, (part, name) in enumerate(_FIELDS):
+        obj = getattr(state, part)
+        if obj is not None:
+            mask |= jnp.where(jnp.all(jnp.isfinite(getattr(obj, name))), 0, 1 << k).astype(jnp.int32)
+    return mask
+
+
+def _field_names(mask: int) -> tuple:
+    return tuple(f"{part}.{name}" for k, (part, name) in enumerate(_FIELDS) if int(mask) & (1 << k))
+
+
 @functools.lru_cache(maxsize=32)
 def _compiled_chunk(config: Config, n_steps: int, period: int):
+    """``n_steps`` of ``rollout.scheduled_step`` in one ``lax.scan``, jitted: ``(state, first,
+    fields)`` with ``first`` the step index after which a fatal status bit first showed (-1:
+    none) and ``fields`` the mask of ``_FIELDS`` non-finite then (a ``lax.cond`` evaluated only
+    at that step). The carried index leaves the state's arithmetic as it was."""
     one = scheduled_step(config, period=period)
+    fatal = ~int(Status.growable())
 
     def run(state, params):
-        return jax.lax.scan(lambda s, _: (one(s, params), None), state, None, length=n_steps)[0]
+        def body(carry, _):
+            s, first, fields = carry
+            s = one(s, params)
+            new = (first < 0) & ((s.status & fatal) != 0)
+            fields = jax.lax.cond(new, _non_finite_fields, lambda _: fields, s)
+            return (s, jnp.where(new, s.step, first), fields), None
+
+        none = jnp.asarray(-1, jnp.int32)
+        return jax.lax.scan(body, (state, none, jnp.zeros((), jnp.int32)), None, length=n_steps)[0]
 
     return jax.jit(run)
-
-
-@functools.lru_cache(maxsize=8)
-def _compiled_single_step(config: Config, period: int):
-    """``rollout.scheduled_step`` jitted, for replaying a failed chunk step by step."""
-    return jax.jit(scheduled_step(config, period=period))
-
-
-def _first_bad_step(config: Config, period: int, start_state: State, params, bad_state: State, mask: int) -> int:
-    """The first step whose status has a bit of ``mask``: the chunk from ``start_state`` (status
-    clear) replayed one step at a time (only after a chunk failed). Falls back to the chunk's
-    last step if the replay does not reproduce the bit."""
-    step = _compiled_single_step(config, period)
-    state = start_state
-    for _ in range(int(bad_state.step) - int(start_state.step)):
-        state = step(state, params)
-        if int(state.status) & mask:
-            return int(state.step)
-    return int(bad_state.step)
 
 
 def _round8(n: float) -> int:
@@ -197,13 +256,15 @@ def _clear(state: State) -> State:
 def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt: Optional[float] = None,
              keep_frames: Optional[bool] = None, progress: Optional[bool] = None, max_regrows: int = 8,
              observe=None, rebuild_period: Optional[int] = None, tuning=None) -> Result:
-    """Run ``scene`` to ``t_end`` [s] (rounded up to a whole output frame).
+    """Run ``scene`` to ``t_end`` [s], rounded up to a whole output frame (frames are a whole
+    number of steps apart; the run ends on the first frame at or after ``t_end``).
 
     Args:
         t_end: end time s.
         out: HDF5 path to write frames to (chunk by chunk), or None; XDMF sidecars for ParaView
-            are written next to it at the end (``rockjax.io.xdmf``).
-        frame_dt: output interval s (default: ~50 frames over the run).
+            are written next to it at the end (``rockjax.io.xdmf``). Its folder must exist and be
+            writable (checked before the run starts).
+        frame_dt: output interval s (default: ~50 frames over the run); at most ``t_end``.
         keep_frames: keep frames in memory (default: when ``out`` is None).
         progress: show a progress bar (default: when stderr is a terminal).
         max_regrows: how many buffer regrowths to try before giving up.
@@ -216,8 +277,11 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
         tuning: speed settings (``rockjax.Tuning``) replacing the scene's ``config.tuning``, or None.
 
     Raises:
-        ValueError: params the config cannot run (checked on the host before the first step).
-        SimulationError: a fatal status bit (non-finite values, particles off the grid, unstable dt).
+        ValueError: inputs no run can use, checked on the host before anything is compiled:
+            ``t_end`` / ``frame_dt`` (``check_times``), ``out`` (``check_out``), params the config
+            cannot run (``scenes.check_params``, ``check_block_dt``), ``rebuild_period``.
+        SimulationError: a fatal status bit (non-finite values, particles off the grid, unstable
+            dt), naming the first step that set it and, for NaN / Inf, the fields that held them.
     """
     config, params, state = scene.config, scene.params, scene.state
     if tuning is not None:
@@ -227,13 +291,11 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
         from . import blocks
 
         state = state.replace(blocks=blocks.fit_history(config.blocks, state.blocks))
-    if not (t_end > 0 and math.isfinite(t_end)):
-        raise ValueError(f"simulate: t_end must be a positive time in seconds (got {t_end})")
+    check_times(t_end, frame_dt)
+    check_out(out)
     check_params(config, params)
     check_block_dt(config, params, state)
     frame_dt = t_end / 50 if frame_dt is None else float(frame_dt)
-    if frame_dt <= 0:
-        raise ValueError(f"simulate: frame_dt must be positive (got {frame_dt})")
     keep_frames = out is None if keep_frames is None else keep_frames
     progress = sys.stderr.isatty() if progress is None else progress
 
@@ -290,11 +352,11 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
     try:
         frame = 0
         while frame < n_frames:
-            new = _compiled_chunk(config, steps_per_frame, period)(state, params)
+            new, first, fields = _compiled_chunk(config, steps_per_frame, period)(state, params)
             bits = int(new.status)
             if bits:
                 config, period, state, regrows = _handle(config, period, new, state, params, bits, regrows,
-                                                         max_regrows)
+                                                         max_regrows, first=int(first), fields=int(fields))
                 continue
             steps_done += steps_per_frame
             state = new
@@ -330,19 +392,34 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
                   frames=stacked, path=out, stats=stats, observed=obs)
 
 
-def _handle(config, period, bad_state, start_state, params, bits, regrows, max_regrows, primed=True):
+def _host_non_finite_fields(state: State) -> tuple:
+    """The ``_FIELDS`` of ``state`` holding a NaN or Inf (host)."""
+    out = []
+    for part, name in _FIELDS:
+        obj = getattr(state, part)
+        if obj is not None and not np.all(np.isfinite(np.asarray(getattr(obj, name)))):
+            out.append(f"{part}.{name}")
+    return tuple(out)
+
+
+def _handle(config, period, bad_state, start_state, params, bits, regrows, max_regrows, primed=True,
+            first: int = -1, fields: int = 0):
     """Grow buffers for growable bits and return ``(config, period, state, regrows)`` with the
     chunk's start state re-made for the new buffers (its list rebuilt, or primed at the start of
-    the run), or raise on a fatal bit or after ``max_regrows``."""
+    the run), or raise on a fatal bit or after ``max_regrows``. ``first`` / ``fields``: the
+    chunk's first step with a fatal bit and its non-finite field mask (``_compiled_chunk``; -1:
+    the state is a single step's, ``bad_state`` itself)."""
     while True:
         fatal = bits & ~int(Status.growable())
         if fatal:
-            step = int(bad_state.step)
-            if primed and step > int(start_state.step) + 1:
-                step = _first_bad_step(config, period, start_state, params, bad_state, fatal)
+            if first >= 0:
+                step, names = first, _field_names(fields)
+            else:
+                step, names = int(bad_state.step), _host_non_finite_fields(bad_state)
+            where = f" in {', '.join(names)}" if names and fatal & Status.NON_FINITE else ""
             raise SimulationError(
-                f"simulation stopped at step {step} (t = {step * config.dt:.6g} s): {Status.describe(fatal)}. "
-                + _advice(fatal), step=step, status=bits)
+                f"simulation stopped at step {step} (t = {step * config.dt:.6g} s): {Status.describe(fatal)}{where}. "
+                + _advice(fatal), step=step, status=bits, fields=names if where else ())
         if regrows >= max_regrows:
             raise SimulationError(f"gave up after {regrows} buffer regrowths ({Status.describe(bits)})",
                                   step=int(bad_state.step), status=bits)
@@ -354,7 +431,7 @@ def _handle(config, period, bad_state, start_state, params, bits, regrows, max_r
         bits = int(state.status)
         if not bits:
             return config, period, state, regrows
-        bad_state = state
+        bad_state, first = state, -1
 
 
 def check_block_dt(config: Config, params, state: State) -> None:

@@ -112,8 +112,7 @@ def scheduled_step(config: Config, *, rebuild_on_displacement: bool = True, peri
     ``advance``. With the default period and a state whose counter started at a block boundary
     (rollouts start at 0) it takes exactly the steps ``make_rollout`` takes. The host driver scans
     it between output frames (any number of steps, with a longer ``period``: the displacement
-    trigger keeps the list valid, the period only bounds how long particles go un-sorted), and
-    replays a failed chunk with it to name the first bad step.
+    trigger keeps the list valid, the period only bounds how long particles go un-sorted).
     """
     inner = _step_in_block(config, rebuild_on_displacement)
     period = config.rebuild_every if period is None else int(period)
@@ -219,7 +218,12 @@ def make_rollout(config: Config, n_blocks: int, *, checkpoint: bool = True,
 def rollout(config: Config, state: State, params: Params, n_blocks: int, *, checkpoint: bool = True,
             observe=None, chunk: Optional[int] = None, rebuild_on_displacement: bool = True,
             checkpoint_levels: int = 2, tuning=None):
-    """Functional form of ``make_rollout(config, n_blocks, ...)(state, params)``."""
+    """Functional form of ``make_rollout(config, n_blocks, ...)(state, params)``; concrete
+    ``params`` are checked on the host first (``scenes.check_param_values``: a ValueError naming
+    the field, before anything is compiled)."""
+    from .scenes.base import check_param_values
+
+    check_param_values(params)
     return make_rollout(config, n_blocks, checkpoint=checkpoint, observe=observe, chunk=chunk,
                         rebuild_on_displacement=rebuild_on_displacement,
                         checkpoint_levels=checkpoint_levels, tuning=tuning)(state, params)

@@ -62,17 +62,18 @@ def _overlap_scene(depth_frac: float):
     pos = [[0.0, 0.0, -0.15], [0.0, 0.0, a / 2], [0.02, 0.01, a / 2 + a * (1 - depth_frac)]]
     return coupled_scene(name="overlap", dx=None, polyhedra=polys, positions=pos,
                          motion=(Motion.FIXED, Motion.DYNAMIC, Motion.DYNAMIC), block_density=2650.0,
-                         friction_angle_deg=30.0, block_kwargs=dict(normal_stiffness=1e7, shear_stiffness=1e7))
+                         friction_angle_deg=30.0, block_kwargs=dict(normal_stiffness=1e7, shear_stiffness=1e7,
+                                                                    check_overlap=False))  # built to be run
 
 
 @pytest.mark.parametrize("depth_frac", [0.3, 0.6])
 def test_deep_overlap_is_reported_and_finite(depth_frac):
     """Blocks that start 30 % / 60 % inside each other: the first step must set BLOCK_PENETRATION
     (the contact is deeper than ``penetration_limit`` = 0.1 of the block radius) and the driver must
-    stop with a SimulationError naming step 1 (it checks the status bits once per chunk, then
-    replays the failed chunk step by step to name the first step that set them) -- never run on
-    silently. Then the same scene stepped
-    by hand past the bit (0.3 s): values stay finite and the blocks separate -- violently: the
+    stop with a SimulationError naming step 1 (it checks the status bits once per chunk, which
+    carries the index of the first step that set them) -- never run on silently (``make_blocks``
+    refuses such a start; ``check_overlap=False`` builds it to see the run stop). Then the same
+    scene stepped by hand past the bit (0.3 s): values stay finite and the blocks separate -- violently: the
     penalty spring's stored energy flings the upper block off at tens of m/s. That is why the
     driver refuses to run on past the bit."""
     scene = _overlap_scene(depth_frac)

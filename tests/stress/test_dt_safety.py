@@ -51,7 +51,7 @@ def test_params_change_under_fixed_dt_stops_with_step(dam):
     dt <= 0.5 h / c0 at rest) passes, but the in-jit limit dt <= 0.5 h / (c0 + v_max) fails as soon
     as the collapsing column reaches 0.02 c0 = 0.4 m/s. The driver must stop with a SimulationError
     naming the step and UNSTABLE_DT -- not run on. The step named is the first that set the bit
-    (the driver replays the failed chunk step by step): checked here by stepping by hand from the
+    (each chunk carries the index of its first fatal step): checked here by stepping by hand from the
     start -- the step before it is clean."""
     f = dam.params.fluid
     params = dam.params.replace(fluid=f.replace(c0=1.98 * f.c0))

@@ -117,10 +117,11 @@ def test_run_with_rebuild_period(capsys):
                  "--quiet"]) == 0
     summary = _json(capsys.readouterr().out)
     assert summary["rebuild_period"] == 4 and summary["steps"] >= 1
-    # a bad period is refused with the keyword named (exit 1, no traceback)
+    # a bad period is refused with the flag named (exit 2: bad input, one line, no traceback)
     assert main(["run", "hydrostatic_tank", "--dx", "0.05", "--t-end", "0.005", "--rebuild-period", "0",
-                 "--quiet"]) == 1
-    assert "rebuild_period" in capsys.readouterr().err
+                 "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "--rebuild-period" in err and len(err.strip().splitlines()) == 1
 
 
 def test_run_with_settle(capsys):

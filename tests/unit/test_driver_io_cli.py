@@ -79,8 +79,8 @@ def test_cli_list_and_run(tmp_path):
 
 
 def test_scheduled_step_replays_the_rollout():
-    # the driver names a failed step by replaying its chunk with rollout.scheduled_step: stepping
-    # with it must reproduce make_rollout (same rebuilds at block starts and on displacement)
+    # the driver's chunks scan rollout.scheduled_step: stepping with it must reproduce
+    # make_rollout (same rebuilds at block starts and on displacement)
     import jax
 
     from rockjax.rollout import make_rollout, scheduled_step
@@ -114,3 +114,78 @@ def test_undamped_wcsph_is_warned(small):
         rj.scenes.check_params(small.config, small.params)
         rj.scenes.check_params(small.config, small.params.replace(fluid=f.replace(alpha=0.0 * f.alpha)))
         rj.scenes.check_params(small.config, small.params.replace(fluid=f.replace(delta=0.0 * f.delta)))
+
+
+def test_unwritable_out_is_refused_before_the_run(small, tmp_path, capsys):
+    """An output path whose folder does not exist is refused by ``simulate`` and by the CLI (also
+    with ``--dry-run``) before anything runs: a ValueError / exit 2 naming the path, no chunk
+    compiled, no file written."""
+    from rockjax import driver
+    from rockjax.cli import main
+
+    out = tmp_path / "missing" / "run.h5"
+    compiled = driver._compiled_chunk.cache_info().misses
+    with pytest.raises(ValueError, match=r"out = .*run\.h5.*does not exist; create it"):
+        rj.simulate(small, t_end=0.01, out=str(out), progress=False)
+    for extra in (["--dry-run"], ["--quiet"]):
+        assert main(["run", "hydrostatic_tank", "--dx", "0.05", "--t-end", "0.01", "--out", str(out), *extra]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "missing" in err[0], err
+    assert driver._compiled_chunk.cache_info().misses == compiled
+    assert not out.parent.exists()
+
+
+def test_non_finite_mid_chunk_names_the_first_step_and_field(small, monkeypatch):
+    """A NaN that appears in the particle velocities after step 7 of a 12-step chunk: the
+    SimulationError names step 7 (each chunk carries the index of its first fatal step through
+    its scan) and the field ``particles.v`` -- not the chunk's last step, and not the fields
+    the NaN reached later (positions, densities)."""
+    import jax.numpy as jnp
+
+    from rockjax import driver
+    from rockjax.types import Status
+
+    real = driver.scheduled_step
+
+    def poisoned(config, period):
+        one = real(config, period=period)
+
+        def step(s, params):
+            s = one(s, params)
+            hit = s.step == 7
+            v = jnp.where(hit, jnp.nan, s.particles.v)
+            return s.replace(particles=s.particles.replace(v=v),
+                             status=s.status | jnp.where(hit, int(Status.NON_FINITE), 0).astype(jnp.int32))
+
+        return step
+
+    monkeypatch.setattr(driver, "scheduled_step", poisoned)
+    driver._compiled_chunk.cache_clear()
+    try:
+        frame_dt = 12 * small.config.dt
+        with pytest.raises(rj.SimulationError) as info:
+            rj.simulate(small, t_end=3 * frame_dt, frame_dt=frame_dt, progress=False)
+    finally:
+        driver._compiled_chunk.cache_clear()  # drop the poisoned program
+    e = info.value
+    assert e.step == 7 and "step 7 " in str(e), str(e)
+    assert e.fields == ("particles.v",) and "NON_FINITE in particles.v." in str(e), str(e)
+    assert e.status & Status.NON_FINITE
+
+
+def test_chunk_carry_leaves_the_state_bit_for_bit(small):
+    """The driver's chunk carries the first fatal step and a field mask beside the state; the
+    state it returns is bit for bit that of a plain scan of ``rollout.scheduled_step``."""
+    import jax
+
+    from rockjax import driver
+    from rockjax.rollout import scheduled_step
+
+    cfg, params = small.config, small.params
+    s0 = rj.prime(small.state, params, cfg)
+    one = scheduled_step(cfg, period=32)
+    ref = jax.jit(lambda s, p: jax.lax.scan(lambda c, _: (one(c, p), None), s, None, length=6)[0])(s0, params)
+    got, first, fields = driver._compiled_chunk(cfg, 6, 32)(s0, params)
+    assert int(first) == -1 and int(fields) == 0 and int(got.step) == 6
+    for a, b in zip(jax.tree_util.tree_leaves(got), jax.tree_util.tree_leaves(ref)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))

@@ -32,6 +32,8 @@ from .rotation import quat_matrix
 
 __all__ = [
     "Motion",
+    "check_block_params",
+    "initial_overlaps",
     "Broadphase",
     "BlockConfig",
     "BlockCapacities",
@@ -678,6 +680,51 @@ def _stars(poly: ConvexPolyhedron, V: int, K: int):
 #: ``make_blocks``' default ``BlockCapacities.fcp_crosses`` (where support_edges^2 is more)
 FCP_CROSSES = 128
 
+#: the block densities accepted, kg/m^3: from balsa wood to the densest metals (rock is ~2000-3000).
+#: A lighter block makes the contact springs' stable step (seed Eq 8, ~sqrt(mass)) absurdly small.
+DENSITY_RANGE = (100.0, 25000.0)
+
+
+def _concrete(value) -> bool:
+    return not isinstance(value, jax.core.Tracer)
+
+
+def check_block_params(params: "BlockParams", *, prefix: str = "Params.blocks") -> None:
+    """Refuse block constants a run cannot use (host side; fields that are traced are skipped):
+    non-finite values, a density outside ``DENSITY_RANGE``, a friction angle outside [0, pi/2)
+    rad, negative cohesion or damping, non-positive stiffness, piston period or joint water
+    density. Raises ValueError naming ``Params.blocks.<field>`` and the range expected."""
+    lo, hi = DENSITY_RANGE
+    rules = {  # field: (lower bound, lower bound open, upper bound, upper bound open, unit)
+        "density": (lo, False, hi, False, "kg/m^3 (rock is ~2000-3000)"),
+        "friction_angle": (0.0, False, math.pi / 2, True, "rad"),
+        "cohesion": (0.0, False, None, False, "N per contact point"),
+        "tensile_strength": (0.0, False, 0.0, False, "N (bonded joints are not implemented)"),
+        "normal_stiffness": (0.0, True, None, False, "N/m"),
+        "shear_stiffness": (0.0, False, None, False, "N/m"),
+        "damping_ratio": (0.0, False, None, False, "(ratio of critical)"),
+        "stroke": (0.0, False, None, False, "m"),
+        "period": (0.0, True, None, False, "s"),
+        "joint_water_level": (None, False, None, False, "m"),
+        "joint_water_density": (0.0, True, None, False, "kg/m^3"),
+    }
+    for name, (a, a_open, b, b_open, unit) in rules.items():
+        value = getattr(params, name)
+        if not _concrete(value):
+            continue
+        x = np.asarray(value, dtype=np.float64)
+        bad = ~np.isfinite(x)
+        if a is not None:
+            bad |= (x <= a) if a_open else (x < a)
+        if b is not None:
+            bad |= (x >= b) if b_open else (x > b)
+        if np.any(bad):
+            parts = [f"{'>' if a_open else '>='} {a:g}"] if a is not None else []
+            parts += [f"{'<' if b_open else '<='} {b:g}"] if b is not None else []
+            want = "finite" + (" and " + " and ".join(parts) if parts else "")
+            raise ValueError(f"{prefix}.{name} must be {want} {unit} (got {x.tolist()}); set it with "
+                             f"params.replace(blocks=params.blocks.replace({name}=...))")
+
 
 @dataclasses.dataclass(frozen=True)
 class BlockMaterial:
@@ -733,6 +780,10 @@ class BlockMaterial:
             if dens.shape != (B,) or not np.all(np.isfinite(dens)) or np.any(dens <= 0):
                 raise ValueError(f"density must be a positive finite number or [B={B}] array (kg/m^3), "
                                  f"got {self.density}")
+            lo, hi = DENSITY_RANGE
+            if np.any(dens < lo) or np.any(dens > hi):
+                raise ValueError(f"density must be in [{lo:g}, {hi:g}] kg/m^3 (rock is ~2000-3000; a lighter "
+                                 f"block needs an absurdly small stable step), got {self.density}")
             out["density"] = dens
         phi = _scalar("friction_angle_deg", self.friction_angle_deg, lo=0.0, hi=90.0, hi_open=True, unit="degrees")
         out["friction_angle"] = math.radians(phi)
@@ -823,9 +874,12 @@ class BlockGeometry:
 
 def block_geometry(polyhedra: Sequence[ConvexPolyhedron], *, positions=None, motion=None, orientations=None,
                    velocities=None, omegas=None, stroke: float = 0.0, period: float = 1.0,
-                   prescribed_direction=None, prescribed_ramp: float = 0.0, paths=None) -> BlockGeometry:
+                   prescribed_direction=None, prescribed_ramp: float = 0.0, paths=None,
+                   check_overlap: Optional[float] = None) -> BlockGeometry:
     """Validate the blocks' shapes, poses and motions (``make_blocks``' arguments of those names,
-    same defaults and messages) into a :class:`BlockGeometry`."""
+    same defaults and messages) into a :class:`BlockGeometry`. ``check_overlap``: refuse a
+    DYNAMIC block that starts deeper than this fraction of the pair's smaller bounding radius
+    inside another block (:func:`initial_overlaps`); None: no check."""
     polys = list(polyhedra)
     if not polys:
         raise ValueError("polyhedra: need at least one block")
@@ -855,6 +909,8 @@ def block_geometry(polyhedra: Sequence[ConvexPolyhedron], *, positions=None, mot
         if bad:
             raise ValueError(f"{name}: blocks {bad} are not DYNAMIC; their velocity comes from their motion, set 0")
 
+    if check_overlap is not None:
+        _refuse_overlaps(polys, pos, ori, motion, limit=check_overlap)
     S = _scalar("stroke", stroke, lo=0.0, unit="m")
     T = _scalar("period", period, lo=0.0, lo_open=True, unit="s")
     ramp = _scalar("prescribed_ramp", prescribed_ramp, lo=0.0, unit="s")
@@ -904,6 +960,41 @@ def _paths(paths, motion) -> list:
         if p is not None and motion[i] != Motion.PRESCRIBED:
             raise ValueError(f"paths[{i}]: block {i} is {motion[i].name}; only PRESCRIBED blocks follow a path")
     return out if any(p is not None for p in out) else []
+
+
+def initial_overlaps(polyhedra: Sequence[ConvexPolyhedron], positions, orientations=None, motion=None) -> list:
+    """``[(i, j, depth)]``: the pairs of placed blocks (at least one DYNAMIC; ``motion`` None: all
+    are) that overlap, with how deep (m, ``geometry.overlap_depth``), deepest first. Host numpy;
+    the bounding spheres skip the pairs that cannot touch."""
+    from .geometry import overlap_depth, quat_to_matrix
+
+    B = len(polyhedra)
+    pos = np.asarray(positions, float).reshape(B, 3)
+    ori = np.tile([1.0, 0, 0, 0], (B, 1)) if orientations is None else np.asarray(orientations, float)
+    dyn = [True] * B if motion is None else [m == Motion.DYNAMIC for m in motion]
+    radius = np.array([p.bounding_radius for p in polyhedra])
+    R = [quat_to_matrix(q) for q in ori]
+    out = []
+    for i in range(B):
+        for j in range(i + 1, B):
+            if not (dyn[i] or dyn[j]) or np.linalg.norm(pos[i] - pos[j]) >= radius[i] + radius[j]:
+                continue
+            depth = overlap_depth(polyhedra[i], pos[i], R[i], polyhedra[j], pos[j], R[j])
+            if depth > 0:
+                out.append((i, j, depth))
+    return sorted(out, key=lambda t: -t[2])
+
+
+def _refuse_overlaps(polys, pos, ori, motion, *, limit: float) -> None:
+    """ValueError naming ``positions`` for the deepest pair overlapping more than ``limit`` x the
+    pair's smaller bounding radius (the depth at which the first step sets BLOCK_PENETRATION)."""
+    for i, j, depth in initial_overlaps(polys, pos, ori, motion):
+        r = min(polys[i].bounding_radius, polys[j].bounding_radius)
+        if depth > limit * r:
+            raise ValueError(
+                f"positions: block {i} ({motion[i].name}) and block {j} ({motion[j].name}) start {depth:.3g} m "
+                f"inside each other (more than penetration_limit = {limit:g} x the smaller bounding radius "
+                f"{r:.3g} m, which the first step would stop on); move them apart")
 
 
 def _contact_fields(geometry: BlockGeometry, *, fcp_iterations, broadphase, aabb_margin, grid_cell_size,
@@ -1091,6 +1182,7 @@ def make_blocks(
     fcp_crosses: Optional[int] = None,
     skip_separated: bool = True,
     law: Optional[ContactLaw] = None,
+    check_overlap: bool = True,
 ):
     """Build ``(BlockConfig, BlockParams, BlockState)`` from convex polyhedra, validating every input.
 
@@ -1143,6 +1235,9 @@ def make_blocks(
         ``support_edges`` defaults to the most edge directions touching one face of any of the
         blocks, ``fcp_crosses`` to 128 (0, every slot, where ``support_edges^2`` is not more).
       law: the contact law (``rockjax.blocks.laws``); default ``PenaltyCoulomb()``.
+      check_overlap: refuse blocks that start inside each other deeper than the first step
+        allows (``penetration_limit`` x the pair's smaller bounding radius, at least one of
+        them DYNAMIC); False builds them anyway (to study how a run stops on it).
 
     Returns:
       ``(config, params, state)``; state arrays in float32 (float64 under ``jax_enable_x64``).
@@ -1153,7 +1248,9 @@ def make_blocks(
     geometry = block_geometry(polyhedra, positions=positions, motion=motion, orientations=orientations,
                               velocities=velocities, omegas=omegas, stroke=stroke, period=period,
                               prescribed_direction=prescribed_direction, prescribed_ramp=prescribed_ramp,
-                              paths=paths)
+                              paths=paths,
+                              check_overlap=_scalar("penetration_limit", penetration_limit, lo=0.0, lo_open=True,
+                                                    unit="(relative)") if check_overlap else None)
     material = BlockMaterial(density=density, friction_angle_deg=friction_angle_deg, cohesion=cohesion,
                              tensile_strength=tensile_strength, normal_stiffness=normal_stiffness,
                              shear_stiffness=shear_stiffness, penalty_modulus=penalty_modulus,

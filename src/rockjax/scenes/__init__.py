@@ -3,7 +3,7 @@ and returns a ``Scene``; ``BUILTIN`` maps CLI names to builders; ``load_scene`` 
 read a scene described in a TOML file (``rockjax.scenes.scenefile``); ``settle`` relaxes a scene's
 water before its run."""
 
-from .base import Resolution, Scene, check_params, stable_dt
+from .base import Resolution, Scene, check_param_values, check_params, stable_dt
 from .coupled import block_drop, block_on_incline, floating_box, piston_wavemaker, sliding_wedge, wave_flume
 from .fluid import dam_break, hydrostatic_tank
 from .meta import Gauges, RunupSlope, SceneMeta
@@ -22,4 +22,4 @@ BUILTIN = {
 }
 
 __all__ = ["Scene", "SceneMeta", "Gauges", "RunupSlope", "Resolution", "BUILTIN", "dam_break", "hydrostatic_tank", "sliding_wedge", "piston_wavemaker", "wave_flume",
-           "floating_box", "block_drop", "block_on_incline", "check_params", "stable_dt", "load_scene", "load_file", "settle"]
+           "floating_box", "block_drop", "block_on_incline", "check_params", "check_param_values", "stable_dt", "load_scene", "load_file", "settle"]

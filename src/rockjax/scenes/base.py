@@ -21,7 +21,7 @@ from ..types import Capacities, Config, FluidParams, GridSpec, Kind, NeighbourLi
 from .meta import SceneMeta
 
 __all__ = [
-    "Scene", "Resolution", "lattice", "tank_walls", "water_params", "stable_dt", "check_params", "make_state",
+    "Scene", "Resolution", "lattice", "tank_walls", "water_params", "stable_dt", "check_params", "check_param_values", "make_state",
     "fluid_scene", "particle_layout", "ParticleLayout", "GRAVITY", "empty_neighbours", "as_scheme",
 ]
 
@@ -64,6 +64,29 @@ def _positive(name: str, value: float) -> float:
     value = float(value)
     if not (value > 0 and math.isfinite(value)):
         raise ValueError(f"{name} must be a positive finite number in SI units (got {value})")
+    return value
+
+
+def _lengths(name: str, value, n: int, what: str) -> tuple:
+    """``value`` as ``n`` positive finite lengths [m] (a builder's size option), or a ValueError
+    naming ``name`` and the ``what`` it must hold (e.g. ``"(lx, ly, lz)"``)."""
+    try:
+        out = tuple(float(v) for v in value)
+    except (TypeError, ValueError):
+        out = ()
+    if len(out) != n or not all(v > 0 and math.isfinite(v) for v in out):
+        raise ValueError(f"{name} must be {n} positive lengths in m {what} (got {value!r})")
+    return out
+
+
+def _density(name: str, value) -> float:
+    """A block density [kg/m^3] within ``blocks.model.DENSITY_RANGE``, or a ValueError naming ``name``."""
+    from ..blocks.model import DENSITY_RANGE
+
+    value = _positive(name, value)
+    lo, hi = DENSITY_RANGE
+    if not lo <= value <= hi:
+        raise ValueError(f"{name} must be in [{lo:g}, {hi:g}] kg/m^3 (rock is ~2000-3000; got {value:g})")
     return value
 
 
@@ -113,14 +136,44 @@ class Resolution:
         return math.ceil(2 * (SUPPORT_FACTOR * self.h_factor + skin_factor) - 1e-9) * self.dx
 
 
+#: host bytes a scene needs per lattice point while it is built (positions, clearances, masks,
+#: neighbour-search temporaries): the basis of ``check_lattice_size``'s estimate
+HOST_BYTES_PER_POINT = 400
+
+
+def host_memory_bytes() -> int:
+    """This machine's physical memory in bytes (``os.sysconf``), or 64 GiB where it cannot tell."""
+    import os
+
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, ValueError, OSError):
+        return 64 * 2**30
+
+
+def check_lattice_size(n_points: float, dx: float, what: str = "the scene") -> None:
+    """Refuse a lattice of ``n_points`` at spacing ``dx`` [m] whose estimated host memory
+    (``HOST_BYTES_PER_POINT`` each) exceeds this machine's: a ValueError naming ``dx`` with the
+    estimate, before anything is allocated."""
+    need = float(n_points) * HOST_BYTES_PER_POINT
+    have = host_memory_bytes()
+    if need > have:
+        raise ValueError(f"dx = {dx:g} m is too fine for {what}: about {float(n_points):.3g} lattice points, "
+                         f"~{need / 2**30:.3g} GiB of host memory to build (this machine has {have / 2**30:.3g} GiB); "
+                         "use a larger dx")
+
+
 def lattice(lo, hi, dx: float) -> np.ndarray:
     """Cell-centred cubic lattice filling the box [lo, hi] (m): points ``lo + (i + 1/2) dx``.
 
-    The box sizes are rounded to whole numbers of dx. Returns [n, 3] float64.
+    The box sizes are rounded to whole numbers of dx. Returns [n, 3] float64. Raises ValueError
+    naming ``dx`` when the lattice would not fit in this machine's memory (``check_lattice_size``).
     """
     lo = np.asarray(lo, float)
     hi = np.asarray(hi, float)
-    n = np.maximum(np.round((hi - lo) / dx).astype(int), 0)
+    sizes = np.maximum(np.round((hi - lo) / dx), 0)
+    check_lattice_size(float(np.prod(sizes)), dx)
+    n = sizes.astype(int)
     axes = [lo[a] + (np.arange(n[a]) + 0.5) * dx for a in range(3)]
     g = np.meshgrid(*axes, indexing="ij")
     return np.stack([c.ravel() for c in g], axis=1)
@@ -168,15 +221,50 @@ def as_scheme(scheme) -> FluidScheme:
     return from_names(scheme) if isinstance(scheme, str) else scheme
 
 
+def _concrete(value) -> bool:
+    import jax
+
+    return not isinstance(value, jax.core.Tracer)
+
+
+def check_param_values(params: Params) -> None:
+    """Refuse Params values no run can use (host side; traced fields are skipped): a non-finite
+    gravity, fluid constants that are not finite (``rho0``, ``c0``, ``h`` not positive; ``alpha``,
+    ``nu``, ``delta``, ``wall_viscosity`` negative), coupling constants that are not finite
+    (``penalty_stiffness``, ``interaction_distance`` not positive, ``penalty_damping``
+    negative) and the block constants of ``blocks.check_block_params``. The ValueError names
+    the field (``Params.fluid.c0``) and the range expected; nothing is compiled first."""
+    if _concrete(params.gravity) and not np.all(np.isfinite(np.asarray(params.gravity))):
+        raise ValueError(f"Params.gravity must be three finite numbers in m/s^2 (got {np.asarray(params.gravity)})")
+    rules = []
+    if params.fluid is not None:
+        rules += [("fluid", params.fluid, ("rho0", "c0", "h"), ("alpha", "nu", "delta", "wall_viscosity"))]
+    if params.coupling is not None:
+        rules += [("coupling", params.coupling, ("penalty_stiffness", "interaction_distance"), ("penalty_damping",))]
+    for part, values, positive, non_negative in rules:
+        for name in positive + non_negative:
+            value = getattr(values, name)
+            if not _concrete(value):
+                continue
+            x = np.asarray(value, dtype=np.float64)
+            if not np.all(np.isfinite(x)) or np.any(x <= 0 if name in positive else x < 0):
+                want = "positive" if name in positive else ">= 0"
+                raise ValueError(f"Params.{part}.{name} must be finite and {want} (got {x}); set it with "
+                                 f"params.replace({part}=params.{part}.replace({name}=...))")
+    if params.blocks is not None:
+        from ..blocks.model import check_block_params
+
+        check_block_params(params.blocks)
+
+
 def check_params(config: Config, params: Params) -> None:
-    """Refuse params that the static config cannot run safely (host side, concrete values only)."""
+    """Refuse params that the static config cannot run safely (host side, concrete values only):
+    ``check_param_values``, then the fluid's kernel support against ``Config.cutoff`` and
+    ``Config.dt`` against the stability limit."""
+    check_param_values(params)
     f = params.fluid
     if f is None:
         return
-    for name in ("rho0", "c0", "h"):
-        value = np.asarray(getattr(f, name))
-        if not np.all(np.isfinite(value)) or np.any(value <= 0):
-            raise ValueError(f"Params.fluid.{name} must be positive and finite (got {value})")
     support = SUPPORT_FACTOR * float(np.max(np.asarray(f.h)))
     if support > config.cutoff * (1 + 1e-6):
         raise ValueError(

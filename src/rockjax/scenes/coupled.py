@@ -21,7 +21,7 @@ import numpy as np
 from ..sph.schemes import WCSPH, FluidScheme
 from ..sph.viscosity import Laminar
 from ..types import Capacities, Config, Coupling, CouplingParams, State, float_dtype
-from .base import GRAVITY, Resolution, Scene, _ceil8, _positive, as_scheme, make_state, particle_layout, stable_dt, water_params
+from .base import GRAVITY, Resolution, Scene, _ceil8, _density, _lengths, _positive, as_scheme, make_state, particle_layout, stable_dt, water_params
 from .block_sampling import sample_block_particles, submerged_pair_count
 from .meta import SceneMeta
 from .shapes import fill, plane, shell
@@ -229,6 +229,7 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
             and friction stops it there, see tests/coupling/test_wedge_run.py).
     """
     dx = _positive("sliding_wedge: dx", dx)
+    block_density = _density("sliding_wedge: block_density", block_density)
     for nm, v in (("block_length", block_length), ("block_width", block_width), ("water_depth", water_depth),
                   ("flat_length", flat_length), ("flume_width", flume_width)):
         _positive(f"sliding_wedge: {nm}", v)
@@ -328,9 +329,10 @@ def floating_box(*, dx: float = 0.02, box_size=(0.2, 0.2, 0.1), box_density: flo
     ``initial_draft`` (default: half the equilibrium draft) so it sinks, oscillates and settles.
     """
     dx = _positive("floating_box: dx", dx)
-    lx, ly, lz = (float(s) for s in box_size)
-    L, W = (float(s) for s in tank_size)
-    if box_density <= 0 or box_density >= 1000.0:
+    lx, ly, lz = _lengths("floating_box: box_size", box_size, 3, "(lx, ly, lz)")
+    L, W = _lengths("floating_box: tank_size", tank_size, 2, "(length, width)")
+    water_depth = _positive("floating_box: water_depth", water_depth)
+    if _density("floating_box: box_density", box_density) >= 1000.0:
         raise ValueError(f"floating_box: box_density must be in (0, 1000) kg/m^3 to float (got {box_density})")
     if lx > L - 6 * dx or ly > W - 6 * dx:
         raise ValueError("floating_box: the box must leave >= 3 dx of water on each side; enlarge tank_size")
@@ -363,8 +365,15 @@ def block_drop(*, dx: float = 0.02, box_size=(0.1, 0.1, 0.1), box_density: float
     carries the hydrostatic pressure of the water level the tank has with the box under water
     (``blocks.joint_water``; ``meta["joint_water_level"]``)."""
     dx = _positive("block_drop: dx", dx)
-    lx, ly, lz = (float(s) for s in box_size)
-    L, W = (float(s) for s in tank_size)
+    lx, ly, lz = _lengths("block_drop: box_size", box_size, 3, "(lx, ly, lz)")
+    L, W = _lengths("block_drop: tank_size", tank_size, 2, "(length, width)")
+    water_depth = _positive("block_drop: water_depth", water_depth)
+    box_density = _density("block_drop: box_density", box_density)
+    if not (drop_height >= 0 and math.isfinite(drop_height)):
+        raise ValueError(f"block_drop: drop_height must be a finite height >= 0 in m (got {drop_height})")
+    if lx > L - 2 * dx or ly > W - 2 * dx:
+        raise ValueError(f"block_drop: the box ({lx} x {ly} m) must leave >= 1 dx on each side in the tank "
+                         f"({L} x {W} m); enlarge tank_size or shrink box_size")
     blocks = _blocks_api()
     layers = Resolution(dx, h_factor).wall_layers
     box = blocks.geometry.box(lx, ly, lz)
@@ -589,9 +598,12 @@ def block_on_incline(*, angle_deg: float = 30.0, friction_angle_deg: float = 20.
 
     ``block_kwargs`` go to ``blocks.make_blocks`` (e.g. ``penalty_modulus=1e7`` for a softer
     contact and a 10x larger stable step)."""
+    lx, ly, lz = _lengths("block_on_incline: block_size", block_size, 3, "(lx, ly, lz)")
+    block_density = _density("block_on_incline: block_density", block_density)
+    if not 0.0 <= angle_deg < 90.0:
+        raise ValueError(f"block_on_incline: angle_deg must be in [0, 90) degrees (got {angle_deg})")
     blocks = _blocks_api()
     geo = blocks.geometry
-    lx, ly, lz = (float(s) for s in block_size)
     slope = geo.slope(20 * lx, 10 * ly, 0.2, angle_deg)
     th = math.radians(angle_deg)
     n = np.array([math.sin(th), 0.0, math.cos(th)])

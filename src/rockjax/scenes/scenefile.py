@@ -132,7 +132,7 @@ import numpy as np
 from ..sph import schemes as _schemes
 from ..sph.terms import names as _term_names
 from ..types import Coupling
-from .base import GRAVITY, Resolution, Scene, fluid_scene, lattice
+from .base import GRAVITY, Resolution, Scene, check_lattice_size, fluid_scene, lattice
 
 try:  # Python >= 3.11
     import tomllib as _toml
@@ -576,6 +576,8 @@ def _builtin_value(ctx: _Ctx, path: tuple, v, hint, default):
     if float in types or (isinstance(default, float) and not types):
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             ctx.fail(path, f"expected a number (SI units), got {_typename(v)} {v!r}")
+        if not math.isfinite(v):
+            ctx.fail(path, f"must be finite (got {v})")
         return float(v)
     if int in types or (isinstance(default, int) and not types):
         if isinstance(v, bool) or not isinstance(v, int):
@@ -587,8 +589,9 @@ def _builtin_value(ctx: _Ctx, path: tuple, v, hint, default):
         return v
     if isinstance(default, tuple):
         if not isinstance(v, list) or len(v) != len(default) or not all(
-                isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
-            ctx.fail(path, f"expected an array of {len(default)} numbers (like the default {list(default)}), got {v!r}")
+                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v):
+            ctx.fail(path, f"expected an array of {len(default)} finite numbers (like the default {list(default)}), "
+                           f"got {v!r}")
         return tuple(float(x) for x in v)
     if isinstance(v, list):  # e.g. gauge_x = [0.3, 0.6]
         return list(v)
@@ -1122,6 +1125,10 @@ def build(spec: SceneSpec) -> Scene:
                 ctx.fail(("domain", "hi"), f"the domain must be at least 4 dx = {4 * dx:g} m on every axis "
                                            f"(sizes {(hi - lo).tolist()} m); enlarge it or use a smaller dx")
             hi = lo + n * dx  # whole cells
+            try:
+                check_lattice_size(np.prod(n + 2 * (layers + 1)), dx, "this domain")
+            except ValueError as exc:
+                ctx.fail(("sph", "dx"), str(exc))
         grow = (layers + 1) * dx if has_water else 0.1 * float(np.max(hi - lo))
         clip_lo, clip_hi = lo - grow, hi + grow
     else:
@@ -1144,6 +1151,16 @@ def build(spec: SceneSpec) -> Scene:
             if depth > 1e-3 * size:
                 ctx.fail(b.path + ("position",), f"the block starts {depth:.3g} m inside {s.name} "
                                                  f"(line {ctx.lines.line(spath)}); move it out")
+
+    # nor inside each other (the check make_blocks makes, at the scene file's tolerance)
+    from ..blocks.model import initial_overlaps
+
+    polys = [p for p, _ in moving]
+    for i, j, depth in initial_overlaps(polys, [p.centroid_world for p in polys]):
+        if depth > 1e-3 * 2 * min(polys[i].bounding_radius, polys[j].bounding_radius):
+            bi, bj = moving[i][1], moving[j][1]
+            ctx.fail(bj.path + ("position",), f"the block starts {depth:.3g} m inside block #{bi.path[1] + 1} "
+                                              f"(line {ctx.lines.line(bi.path)}); move them apart")
 
     meta: dict[str, Any] = {"description": spec.description} if spec.description else {}
     block_kwargs = mat.block_kwargs()
