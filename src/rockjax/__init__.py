@@ -6,7 +6,7 @@ The public API, re-exported explicitly:
   the fluid schemes (``WCSPH``, ``SeedScheme``; their terms in ``rockjax.sph``), the remaining
   enums and ``Status`` bits;
 * ``make_step(config) -> step(state, params)``; ``prime``; ``make_rollout`` / ``rollout``;
-* ``simulate(scene, t_end=...)`` (the host driver) and ``SimulationError``;
+* ``simulate(scene, t_end=...)`` (the host driver; checkpoint and resume), ``SimulationError``, ``Interrupted``;
 * ``scenes`` (built-in scene builders returning a ``Scene``), ``observables``, ``io``;
 * the physics packages: ``blocks`` (3D-DDA rock blocks), ``coupling`` (fluid-block exchange);
 * ``calibrate`` (differentiable losses, optax calibration), ``gradcheck`` (is a gradient good at
@@ -17,7 +17,7 @@ __version__ = "0.1.0"
 
 from . import blocks, calibrate, coupling, ensembles, io, observables, scenes, sph
 from .gradcheck import gradcheck
-from .driver import Result, SimulationError, simulate
+from .driver import Interrupted, Result, SimulationError, simulate
 from .rollout import make_rollout, rollout
 from .scenes import Scene
 from .sph.absorbers import Sponge
@@ -35,6 +35,6 @@ __all__ = [
     "CouplingParams", "CouplingState",
     "WCSPH", "SeedScheme", "Sponge", "Tuning", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
     "make_step", "prime", "make_rollout", "rollout",
-    "simulate", "Result", "SimulationError",
+    "simulate", "Result", "SimulationError", "Interrupted",
     "Scene", "scenes", "observables", "io", "sph", "blocks", "coupling", "calibrate", "ensembles", "gradcheck",
 ]

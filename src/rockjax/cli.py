@@ -1,11 +1,14 @@
 """Command line: ``rockjax list``, ``rockjax plot RUN.h5 [--out-dir D]`` and ``rockjax run NAME_OR_FILE [--t-end T] [--dx DX] [--scheme S]
-[--coupling C] [--out run.h5] [--frame-dt DT] [--dry-run] [--quiet]``.
+[--coupling C] [--out run.h5] [--frame-dt DT] [--checkpoint-every N] [--resume run.h5] [--dry-run] [--quiet]``.
 
 ``run`` takes a built-in scene name (``rockjax list``) or a TOML scene file (a path ending in
 ``.toml`` or any existing file; see ``rockjax.scenes.scenefile``). Flags given on the command line
 override the file's values. ``--dry-run`` prints one JSON line (counts, dt, steps, stages, memory
-estimate) without running. Exit status: 0 done, 1 the run failed, 2 bad input (refused before
-anything is compiled, also with ``--dry-run``: one line on stderr naming the field or flag).
+estimate) without running. ``--resume run.h5`` continues an interrupted run (same scene and
+flags) from the file's newest checkpoint, appending frames to it. Exit status: 0 done, 1 the run
+failed (or writing its file failed), 2 bad input (refused before anything is compiled, also with
+``--dry-run``: one line on stderr naming the field or flag), 130 / 143 interrupted (Ctrl-C /
+SIGTERM: with an output file the run stops at the next frame and writes a checkpoint first).
 
 The parser is built by :func:`build_parser`, one ``_add_<command>`` function per subcommand;
 a new subcommand is one more such function registered there.
@@ -27,6 +30,7 @@ _EPILOG = """examples:
   rockjax run dam_break --dx 0.05 --t-end 0.5    a built-in scene at a coarse resolution
   rockjax run examples/box_off_ramp.toml --dry-run
   rockjax run examples/box_off_ramp.toml --out run.h5
+  rockjax run examples/box_off_ramp.toml --resume run.h5   continue it after Ctrl-C or a kill
   rockjax plot run.h5                            PNGs: gauges, run-up, block paths, energy
 scene files: examples/*.toml (every built-in scene, and general scenes); format in
 rockjax/scenes/scenefile.py. Units are SI (m, s, kg/m^3)."""
@@ -75,6 +79,10 @@ def _check_flags(args) -> None:
     """Refuse flags no run can use (ValueError naming the flag), before a scene is built."""
     if args.rebuild_period is not None and args.rebuild_period < 1:
         raise ValueError(f"--rebuild-period must be a positive number of steps (got {args.rebuild_period})")
+    if args.checkpoint_every is not None and args.checkpoint_every < 1:
+        raise ValueError(f"--checkpoint-every must be a positive number of frames (got {args.checkpoint_every})")
+    if args.resume is not None and args.settle:
+        raise ValueError("--settle cannot be combined with --resume (the checkpoint holds the settled state)")
     if not (args.settle >= 0 and math.isfinite(args.settle)):
         raise ValueError(f"--settle must be a finite time >= 0 in seconds (got {args.settle})")
     for flag, value in (("--t-end", args.t_end), ("--dx", args.dx), ("--frame-dt", args.frame_dt)):
@@ -83,12 +91,17 @@ def _check_flags(args) -> None:
 
 
 def _cmd_run(args) -> int:
-    from .driver import SimulationError, check_out, check_times, simulate
+    from .driver import Interrupted, SimulationError, check_out, check_times, simulate
     from .observables import scene_observer
 
     try:
         _check_flags(args)
         scene, t_end, frame_dt, out = _load(args)
+        if args.resume is not None:
+            if out is not None and os.path.abspath(out) != os.path.abspath(args.resume):
+                raise ValueError(f"--out {out} differs from --resume {args.resume}: a resumed run appends to its "
+                                 f"own file (leave --out unset)")
+            out = None
         check_times(t_end, frame_dt, names=("t_end (--t-end)", "frame_dt (--frame-dt)"))
         check_out(out)
     except (LookupError, ValueError, OSError) as e:
@@ -105,14 +118,23 @@ def _cmd_run(args) -> int:
             scene = settle(scene, t_settle=args.settle, progress=not args.quiet and None)
         except ValueError as e:
             return _refuse(e)
+    every = args.checkpoint_every if args.checkpoint_every is not None else (10 if out or args.resume else None)
     try:
         result = simulate(scene, t_end=t_end, out=out, frame_dt=frame_dt, rebuild_period=args.rebuild_period,
-                          progress=not args.quiet and None, keep_frames=False, observe=scene_observer(scene.meta))
+                          progress=not args.quiet and None, keep_frames=False, observe=scene_observer(scene.meta),
+                          checkpoint_every=every, resume=args.resume)
     except ValueError as e:  # refused before the run started (simulate checks its inputs first)
         return _refuse(e)
-    except SimulationError as e:
+    except (SimulationError, OSError) as e:
         print(f"rockjax: {e}", file=sys.stderr)
         return 1
+    except Interrupted as e:
+        print(f"rockjax: {e}", file=sys.stderr)
+        return 128 + e.signum
+    except KeyboardInterrupt:
+        print("rockjax: interrupted (no output file, nothing saved)", file=sys.stderr)
+        return 130
+    out = out or args.resume
     summary = {"scene": scene.name, "t_end": float(result.times[-1]), "frames": len(result.times), "out": out,
                **{k: round(v, 3) if isinstance(v, float) else v for k, v in result.stats.items()}}
     if result.observed and "runup" in result.observed:
@@ -155,6 +177,12 @@ def _add_run(sub) -> None:
     p.add_argument("--scheme", choices=names("scheme"), default=None, help="SPH scheme (default wcsph)")
     p.add_argument("--out", default=None, help="HDF5 output file (default: the file's [output] out, else none)")
     p.add_argument("--frame-dt", type=float, default=None, help="output interval in seconds")
+    p.add_argument("--checkpoint-every", type=int, default=None, metavar="N",
+                   help="with --out: write a checkpoint (the full state) every N frames, keeping the newest "
+                        "(default 10; one is also written at the end and on Ctrl-C)")
+    p.add_argument("--resume", default=None, metavar="RUN.h5",
+                   help="continue the run in RUN.h5 (killed, interrupted or finished) from its newest checkpoint "
+                        "to --t-end, appending frames; give the same scene and flags as the first run")
     p.add_argument("--coupling", choices=["penalty", "boundary_particles", "boundary_integral"], default=None,
                    help="fluid-block coupling (scenes with blocks)")
     p.add_argument("--dry-run", action="store_true",

@@ -17,7 +17,9 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import signal
 import sys
+import threading
 import time
 from typing import Optional
 
@@ -30,8 +32,8 @@ from .scenes.base import Scene, check_params, empty_neighbours
 from .step import prime, refresh
 from .types import Config, Kind, State, Status
 
-__all__ = ["simulate", "Result", "SimulationError", "host_frame", "resize", "check_block_dt", "check_times",
-           "check_out"]
+__all__ = ["simulate", "Result", "SimulationError", "Interrupted", "host_frame", "resize", "check_block_dt",
+           "check_times", "check_out"]
 
 
 class SimulationError(RuntimeError):
@@ -255,15 +257,18 @@ def _clear(state: State) -> State:
 
 def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt: Optional[float] = None,
              keep_frames: Optional[bool] = None, progress: Optional[bool] = None, max_regrows: int = 8,
-             observe=None, rebuild_period: Optional[int] = None, tuning=None) -> Result:
-    """Run ``scene`` to ``t_end`` [s], rounded up to a whole output frame (frames are a whole
-    number of steps apart; the run ends on the first frame at or after ``t_end``).
+             observe=None, rebuild_period: Optional[int] = None, tuning=None,
+             checkpoint_every: Optional[int] = None, resume: Optional[str] = None) -> Result:
+    """Run ``scene`` to ``t_end`` [s]: output frames sit at whole multiples of ``frame_dt``, each a
+    whole number of steps (``round(frame_dt / dt)``) apart, and the run ends on the first frame at
+    or after ``t_end`` (within those steps' rounding).
 
     Args:
         t_end: end time s.
         out: HDF5 path to write frames to (chunk by chunk), or None; XDMF sidecars for ParaView
             are written next to it at the end (``rockjax.io.xdmf``). Its folder must exist and be
-            writable (checked before the run starts).
+            writable (checked before the run starts). With ``out`` the run also writes a
+            checkpoint at its end and when interrupted (Ctrl-C), so it can be resumed or extended.
         frame_dt: output interval s (default: ~50 frames over the run); at most ``t_end``.
         keep_frames: keep frames in memory (default: when ``out`` is None).
         progress: show a progress bar (default: when stderr is a terminal).
@@ -275,13 +280,25 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
             move more than ``skin / 2`` (module docstring). Default ``max(Config.rebuild_every,
             32)``; halved by the driver if a list is ever found stale.
         tuning: speed settings (``rockjax.Tuning``) replacing the scene's ``config.tuning``, or None.
+        checkpoint_every: also write a checkpoint every this many frames (needs ``out``): the full
+            State and the driver's own state (frame, rebuild period, grown buffer sizes), replacing
+            the previous one once complete (``io.hdf5``).
+        resume: a run file written with ``out`` (by this scene: same config and params): continue
+            from its newest complete checkpoint to ``t_end``, appending frames to that file (the
+            frames after the checkpoint, and a torn last frame, are dropped first). The resumed
+            trajectory is the one the run would have taken uninterrupted, bit for bit (same
+            compiled steps, same state, same buffer sizes after a regrow, same rebuild schedule).
+            ``frame_dt`` (None: the file's) and ``out`` (None: the file) must match the file.
 
     Raises:
         ValueError: inputs no run can use, checked on the host before anything is compiled:
             ``t_end`` / ``frame_dt`` (``check_times``), ``out`` (``check_out``), params the config
-            cannot run (``scenes.check_params``, ``check_block_dt``), ``rebuild_period``.
+            cannot run (``scenes.check_params``, ``check_block_dt``), ``rebuild_period``,
+            ``checkpoint_every``, a ``resume`` file without a checkpoint or of another scene.
         SimulationError: a fatal status bit (non-finite values, particles off the grid, unstable
             dt), naming the first step that set it and, for NaN / Inf, the fields that held them.
+        Interrupted: Ctrl-C (a ``KeyboardInterrupt``), after writing a checkpoint to ``out``.
+        OSError: writing ``out`` failed mid-run (disk full): the frames written so far are kept.
     """
     config, params, state = scene.config, scene.params, scene.state
     if tuning is not None:
@@ -291,16 +308,28 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
         from . import blocks
 
         state = state.replace(blocks=blocks.fit_history(config.blocks, state.blocks))
+    ckpt = None
+    if resume is not None:
+        ckpt = _read_resume(resume, out)
+        out = resume
+        if frame_dt is None:
+            frame_dt = ckpt.driver["steps_per_frame"] * config.dt
     check_times(t_end, frame_dt)
-    check_out(out)
+    if resume is None:
+        check_out(out)
     check_params(config, params)
     check_block_dt(config, params, state)
+    if checkpoint_every is not None and (int(checkpoint_every) != checkpoint_every or checkpoint_every < 1
+                                         or out is None):
+        raise ValueError(f"checkpoint_every must be a positive number of frames, with out set "
+                         f"(got {checkpoint_every!r}, out = {out!r})")
     frame_dt = t_end / 50 if frame_dt is None else float(frame_dt)
     keep_frames = out is None if keep_frames is None else keep_frames
     progress = sys.stderr.isatty() if progress is None else progress
 
     steps_per_frame = max(1, round(frame_dt / config.dt))
-    n_frames = max(1, math.ceil(t_end / (steps_per_frame * config.dt)))
+    # frames sit at (nominal) multiples of frame_dt: the last is the first at or after t_end
+    n_frames = max(1, math.ceil(t_end / frame_dt * (1 - 1e-9)))
     if rebuild_period is None:
         period = max(config.rebuild_every, DEFAULT_REBUILD_PERIOD)
     elif int(rebuild_period) != rebuild_period or rebuild_period < 1:
@@ -308,68 +337,112 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
     else:
         period = int(rebuild_period)
 
+    frames: list[dict] = []
+    times: list[float] = []
+    observed: list[dict] = []
+    regrows = 0
+    steps_done = 0
+    frame = 0
+    t0 = time.perf_counter()
+    if ckpt is not None:
+        config, period, state, frame, steps_done, regrows = _resumed(ckpt, resume, scene.replace(config=config),
+                                                                     state, params, steps_per_frame, t_end)
+        earlier = _earlier_frames(resume, frame + 1, keep_frames)
+        times, frames, observed = earlier["times"], earlier["frames"], earlier["observed"]
+    else:
+        state = prime(state, params, config)
+        bits = int(state.status)
+        if bits:
+            config, period, state, regrows = _handle(config, period, state, scene.state, params, bits, regrows,
+                                                     max_regrows, primed=False)
+        state = _clear(state)
+
     writer = None
     if out is not None:
         from .io.hdf5 import Writer
 
-        writer = Writer(out, scene)
-    frames: list[dict] = []
-    times: list[float] = []
-    regrows = 0
-    t0 = time.perf_counter()
-    state = prime(state, params, config)
-    bits = int(state.status)
-    if bits:
-        config, period, state, regrows = _handle(config, period, state, scene.state, params, bits, regrows,
-                                                 max_regrows, primed=False)
-    state = _clear(state)
+        writer = Writer.reopen(out, frame + 1) if ckpt is not None else Writer(out, scene)
 
-    observed: list[dict] = []
     obs_fn = None
     if observe is not None:
         obs_fn = jax.jit(lambda s, p: observe(s, p, scene.config))
 
     def record(s: State):
         t = float(s.step) * config.dt
-        times.append(t)
         obs = None
         if obs_fn is not None:
             obs = jax.device_get(obs_fn(s, params))
-            observed.append(obs)
-        frame = host_frame(s)
-        if keep_frames:
-            frames.append(frame)
+        frame_arrays = host_frame(s)
         if writer is not None:
-            writer.append(t, frame, int(s.status), observed=obs)
+            try:
+                writer.append(t, frame_arrays, int(s.status), observed=obs)
+            except OSError as e:
+                n = writer.n_frames
+                raise OSError(e.errno, f"writing frame {n} (t = {t:.6g} s) to {out!r} failed ({e}); the "
+                                       f"{n} frames written before it are kept (rockjax.io.read)") from e
+        times.append(t)
+        if obs is not None:
+            observed.append(obs)
+        if keep_frames:
+            frames.append(frame_arrays)
 
-    record(state)
+    def checkpoint():
+        leaves = jax.tree_util.tree_flatten_with_path(jax.device_get(state))[0]
+        writer.write_checkpoint(frame, [(jax.tree_util.keystr(k), v) for k, v in leaves], dict(
+            frame=frame, step=int(state.step), steps_done=steps_done, period=period, regrows=regrows,
+            steps_per_frame=steps_per_frame, dt=config.dt, x64=bool(jax.config.jax_enable_x64),
+            capacities=dataclasses.asdict(config.capacities),
+            block_capacities=dataclasses.asdict(config.blocks.capacities) if config.blocks is not None else None,
+            config=_config_json(config)))
+
     bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=n_frames, unit="frame", dynamic_ncols=True)
-    steps_done = 0
+    stop = _StopRequest() if writer is not None else None
     try:
-        frame = 0
+        if stop is not None:
+            stop.install()
+        if ckpt is None:
+            record(state)
+        if progress:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=n_frames, initial=frame, unit="frame", dynamic_ncols=True)
+        steps_run, t_run = steps_done, time.perf_counter()
         while frame < n_frames:
+            if stop is not None and stop.signum:
+                raise KeyboardInterrupt
             new, first, fields = _compiled_chunk(config, steps_per_frame, period)(state, params)
             bits = int(new.status)
             if bits:
                 config, period, state, regrows = _handle(config, period, new, state, params, bits, regrows,
                                                          max_regrows, first=int(first), fields=int(fields))
                 continue
-            steps_done += steps_per_frame
-            state = new
-            record(state)
-            frame += 1
+            record(new)
+            state, frame, steps_done = new, frame + 1, steps_done + steps_per_frame
+            if checkpoint_every is not None and frame % int(checkpoint_every) == 0 and frame < n_frames:
+                checkpoint()
             if bar is not None:
                 now = time.perf_counter()
                 if frame == 1:  # the first chunk includes the compile: the rate counts from here on
                     t_run, steps_run = now, steps_done
-                rate = (steps_done - steps_run) / max(now - t_run, 1e-9) if frame > 1 else float("nan")
+                rate = (steps_done - steps_run) / max(now - t_run, 1e-9) if steps_done > steps_run else float("nan")
                 bar.set_postfix_str(f"t={times[-1]:.4g}/{t_end:.4g} s steps/s={rate:.0f}", refresh=False)
                 bar.update(1)
+        if writer is not None:
+            checkpoint()
+    except KeyboardInterrupt as e:
+        if writer is None:
+            raise
+        if stop is not None:
+            stop.restore()  # a second Ctrl-C while the checkpoint is written stops at once
+        checkpoint()  # the state after the last complete frame
+        signum = stop.signum if stop is not None and stop.signum else signal.SIGINT
+        raise Interrupted(f"interrupted ({signal.Signals(signum).name}) at t = "
+                          f"{frame * steps_per_frame * config.dt:.6g} s (frame {frame}); checkpoint written to "
+                          f"{out!r}: resume with simulate(..., resume={out!r}) or `rockjax run ... --resume {out}`",
+                          path=out, frame=frame, signum=int(signum)) from e
     finally:
+        if stop is not None:
+            stop.restore()
         if bar is not None:
             bar.close()
         if writer is not None:
@@ -390,6 +463,152 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
     obs = {k: np.stack([np.asarray(o[k]) for o in observed]) for k in observed[0]} if observed else None
     return Result(scene=scene.replace(config=config, state=state), state=state, times=np.asarray(times),
                   frames=stacked, path=out, stats=stats, observed=obs)
+
+
+class Interrupted(KeyboardInterrupt):
+    """A run stopped by Ctrl-C (SIGINT) or SIGTERM after writing a checkpoint: ``path`` (the run
+    file), ``frame`` (the last complete frame, where ``simulate(..., resume=path)`` continues) and
+    ``signum`` (the signal; the CLI exits with 128 + signum)."""
+
+    def __init__(self, message: str, *, path: str, frame: int, signum: int = signal.SIGINT):
+        super().__init__(message)
+        self.path = path
+        self.frame = frame
+        self.signum = signum
+
+
+class _StopRequest:
+    """SIGINT / SIGTERM during a run with an output file: remembered (``signum``) instead of raised
+    inside a running computation, so the driver stops at the next frame boundary, writes a
+    checkpoint and raises ``Interrupted``. Only from the main thread (where Python runs signal
+    handlers); a second signal gets the previous handler (Ctrl-C twice: stop at once)."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self):
+        self.signum = 0
+        self._old = {}
+
+    def install(self) -> None:
+        if threading.current_thread() is not threading.main_thread():
+            return
+        for sig in self.SIGNALS:
+            self._old[sig] = signal.signal(sig, self._handle)
+
+    def _handle(self, signum, _frame) -> None:
+        self.signum = signum
+        self.restore()
+
+    def restore(self) -> None:
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        self._old = {}
+
+
+def _config_json(config: Config) -> str:
+    from .io.hdf5 import config_to_json
+
+    return config_to_json(config)
+
+
+def _read_resume(resume, out):
+    """The newest complete checkpoint of ``resume`` (ValueError naming ``resume`` when the file
+    cannot be resumed; ``out`` must be None or the same file)."""
+    import os
+
+    from .io.hdf5 import read_checkpoint
+
+    if out is not None and os.path.abspath(os.fspath(out)) != os.path.abspath(os.fspath(resume)):
+        raise ValueError(f"out = {out!r} differs from resume = {resume!r}; a resumed run appends to its own file "
+                         f"(leave out unset)")
+    if not os.path.isfile(resume):
+        raise ValueError(f"resume = {resume!r} is not a file; give the HDF5 file a run wrote with out=...")
+    if not os.access(resume, os.W_OK):
+        raise ValueError(f"resume = {resume!r} is not writable; a resumed run appends its frames to it")
+    try:
+        ckpt = read_checkpoint(resume)
+    except OSError as e:
+        raise ValueError(f"resume = {resume!r} cannot be read as a run file ({e})") from e
+    if ckpt is None:
+        raise ValueError(f"resume = {resume!r} holds no complete checkpoint (a run writes one at its end, on "
+                         f"Ctrl-C and every checkpoint_every frames); start the run again")
+    return ckpt
+
+
+def _resumed(ckpt, resume, scene: Scene, state: State, params, steps_per_frame: int, t_end: float):
+    """``(config, period, state, frame, steps_done, regrows)`` of a checkpoint, after checking that
+    it belongs to this scene (config with the run's grown buffer sizes, params, state layout)."""
+    from .io.hdf5 import _params_items
+
+    d = ckpt.driver
+    config = scene.config
+    if d["steps_per_frame"] != steps_per_frame or not math.isclose(d["dt"], config.dt, rel_tol=1e-12):
+        raise ValueError(f"frame_dt: resume = {resume!r} was run with {d['steps_per_frame']} steps of dt = "
+                         f"{d['dt']:.6g} s per frame; resume with frame_dt unset (the file's)")
+    if d["x64"] != bool(jax.config.jax_enable_x64):
+        raise ValueError(f"resume = {resume!r} was run with jax_enable_x64 = {d['x64']}; resume with the same "
+                         f"precision")
+    from .types import Capacities
+
+    config = config.replace(capacities=Capacities(**d["capacities"]))
+    if config.blocks is not None and d["block_capacities"] is not None:
+        caps = config.blocks.capacities
+        config = config.replace(blocks=config.blocks.replace(capacities=type(caps)(**d["block_capacities"])))
+    import json
+
+    mine, theirs = json.loads(_config_json(config)), json.loads(d["config"])
+    if mine != theirs:
+        keys = sorted(k for k in set(mine) | set(theirs) if mine.get(k) != theirs.get(k))
+        raise ValueError(f"resume = {resume!r} was run with another config (fields {', '.join(keys)} differ); "
+                         f"resume with the same scene, options and tuning")
+    import h5py
+
+    with h5py.File(resume, "r") as f:
+        for name, value in _params_items(params):
+            stored = f["params"][name][()] if name in f["params"] else None
+            if stored is None or np.shape(stored) != np.shape(value) or not np.array_equal(stored, value):
+                raise ValueError(f"resume = {resume!r} was run with other params (Params.{name.replace('/', '.')}: "
+                                 f"file {stored!r}, scene {value!r}); resume with the same scene and options")
+    template = resize(state, config)
+    paths, treedef = jax.tree_util.tree_flatten_with_path(template)
+    if len(paths) != len(ckpt.leaves):
+        raise ValueError(f"resume = {resume!r}: its state has {len(ckpt.leaves)} arrays, this scene's "
+                         f"{len(paths)}; resume with the same scene")
+    arrays = []
+    for (key, ref), (name, a) in zip(paths, ckpt.leaves):
+        if jax.tree_util.keystr(key) != name or np.shape(ref) != a.shape or np.dtype(ref.dtype) != a.dtype:
+            raise ValueError(f"resume = {resume!r}: state array {name} {a.dtype}{list(a.shape)} does not fit this "
+                             f"scene's {jax.tree_util.keystr(key)} {ref.dtype}{list(np.shape(ref))}; resume with "
+                             f"the same scene")
+        arrays.append(jnp.asarray(a))
+    state = jax.tree_util.tree_unflatten(treedef, arrays)
+    frame = int(d["frame"])
+    if t_end < frame * steps_per_frame * config.dt * (1 - 1e-9):
+        raise ValueError(f"t_end = {t_end:g} s is before the checkpoint of resume = {resume!r} "
+                         f"({frame * steps_per_frame * config.dt:.6g} s); give a later t_end")
+    return config, int(d["period"]), state, frame, int(d["steps_done"]), int(d["regrows"])
+
+
+def _earlier_frames(path, n: int, keep_frames: bool) -> dict:
+    """The first ``n`` frame times (and, when ``keep_frames``, frames; observations) of a run file,
+    as the resumed run's Result starts with them (frames as stored, float32)."""
+    import h5py
+
+    from .io.hdf5 import _frame_datasets
+
+    with h5py.File(path, "r") as f:
+        times = [float(t) for t in f["time"][:n]]
+        names = [k for k in _frame_datasets(f) if not k.startswith("observed/")]
+        frames = []
+        if keep_frames:
+            data = {k: f[k][:n] for k in names}
+            kind = {"kind": f["kind"][()]} if "kind" in f else {}
+            frames = [dict({k: data[k][i] for k in names}, **kind) for i in range(n)]
+        observed = []
+        if "observed" in f:
+            obs = {k: f["observed"][k][:n] for k in f["observed"].keys()}
+            observed = [{k: v[i] for k, v in obs.items()} for i in range(n)]
+    return {"times": times, "frames": frames, "observed": observed}
 
 
 def _host_non_finite_fields(state: State) -> tuple:

@@ -272,7 +272,9 @@ def test_support_edges_find_the_same_plane(seed, x64):
     xj = place_at_gap(pi, qi, pj, qj, rng.normal(size=3), target)
     k = max(pi.support_directions(), pj.support_directions())
     assert k < pi.n_edges  # the gathering is exercised
-    cfg, _, _ = make_blocks([pi, pj], positions=np.stack([np.zeros(3), xj]), motion=[Motion.FIXED, Motion.DYNAMIC])
+    # only make_blocks' buffer sizes are used here (the poses go to fcp directly, rotated)
+    cfg, _, _ = make_blocks([pi, pj], positions=np.stack([np.zeros(3), xj]), motion=[Motion.FIXED, Motion.DYNAMIC],
+                            check_overlap=False)
     c = cfg.fcp_crosses
     assert 0 < c < k * k  # the enumeration is exercised
     n_prev = rng.normal(size=3)

@@ -46,8 +46,9 @@ def test_slab_and_slope_helpers():
     ],
 )
 def test_make_blocks_rejects_bad_input(kw, match):
+    apart = dict(positions=np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]))  # not refused for overlapping
     with pytest.raises(ValueError, match=match):
-        make_blocks([box(1, 1, 1), box(1, 1, 1)], **kw)
+        make_blocks([box(1, 1, 1), box(1, 1, 1)], **dict(apart, **kw))
 
 
 def test_defaults_and_stable_dt():
@@ -91,7 +92,7 @@ def test_grid_broadphase_matches_all_pairs_and_flags_overflow():
     polys = [box(*rng.uniform(0.15, 0.3, 3)) for _ in range(n)] + [slab(5, 5, 0.3)]
     pos = np.concatenate([pos, [[1.0, 1.0, -0.15]]])
     motion = [Motion.DYNAMIC] * n + [Motion.FIXED]
-    kw = dict(positions=pos, motion=motion)
+    kw = dict(positions=pos, motion=motion, check_overlap=False)  # random boxes, some overlapping: pairs to find
     c_all, _, s_all = make_blocks(polys, broadphase=Broadphase.ALL_PAIRS, **kw)
     c_grid, _, s_grid = make_blocks(polys, broadphase=Broadphase.GRID, pair_capacity=400, **kw)
     assert c_grid.large_blocks == (n,)
