@@ -324,7 +324,8 @@ def test_box_pairs_start_from_every_separating_axis(x64):
         L = min(pi.bounding_radius, pj.bounding_radius)
         g, axis, second = sat(pi, qi, np.zeros(3), pj, qj, xj)
         cfg, par, st = make_blocks([pi, pj], positions=np.stack([np.zeros(3), xj]), orientations=np.stack([qi, qj]),
-                                   motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6, aabb_margin=0.01)
+                                   motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6, aabb_margin=0.01,
+                                   check_overlap=False)  # overlapping on purpose
         info = forces(st, par, config=cfg, dt=1e-4, return_info=True)[4]
         assert bool(info["pair_mask"][0])
         assert int(info["fcp_changes"][0]) == 0  # no iteration ran

@@ -250,7 +250,8 @@ def _rock_pair():
     shapes = [random_block(rng, 12), random_block(rng, 12)]
     q = np.stack([[1.0, 0, 0, 0], quat_from_axis_angle((0.3, 0.2, 1), 0.7)])
     pos = np.stack([np.zeros(3), place_at_gap(shapes[0], q[0], shapes[1], q[1], (0.2, -0.1, 1.0), -0.02)])
-    return shapes, dict(positions=pos, orientations=q, motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6)
+    return shapes, dict(positions=pos, orientations=q, motion=[Motion.FIXED, Motion.DYNAMIC], normal_stiffness=1e6,
+                        check_overlap=False)  # a pair pressed into each other: the loads to test
 
 
 def _check_fcp_buffer(field, small, bit):

@@ -985,16 +985,23 @@ def initial_overlaps(polyhedra: Sequence[ConvexPolyhedron], positions, orientati
     return sorted(out, key=lambda t: -t[2])
 
 
+#: the deepest start overlap ``make_blocks`` accepts, as a fraction of the smaller block's size
+#: (2 x bounding radius): the scene files' tolerance. Deeper, the contact springs hold an energy
+#: k d^2 / 2 that throws the blocks apart at the first steps (1 m blocks 3 cm deep at the default
+#: stiffness: ~0.5 MJ), or the first step stops on BLOCK_PENETRATION.
+START_OVERLAP = 1e-3
+
+
 def _refuse_overlaps(polys, pos, ori, motion, *, limit: float) -> None:
     """ValueError naming ``positions`` for the deepest pair overlapping more than ``limit`` x the
-    pair's smaller bounding radius (the depth at which the first step sets BLOCK_PENETRATION)."""
+    pair's smaller block size (2 x bounding radius)."""
     for i, j, depth in initial_overlaps(polys, pos, ori, motion):
-        r = min(polys[i].bounding_radius, polys[j].bounding_radius)
-        if depth > limit * r:
+        size = 2 * min(polys[i].bounding_radius, polys[j].bounding_radius)
+        if depth > limit * size:
             raise ValueError(
                 f"positions: block {i} ({motion[i].name}) and block {j} ({motion[j].name}) start {depth:.3g} m "
-                f"inside each other (more than penetration_limit = {limit:g} x the smaller bounding radius "
-                f"{r:.3g} m, which the first step would stop on); move them apart")
+                f"inside each other (more than {limit:g} x the smaller block's size {size:.3g} m: the contact "
+                f"springs would throw them apart); move them apart (check_overlap=False builds it anyway)")
 
 
 def _contact_fields(geometry: BlockGeometry, *, fcp_iterations, broadphase, aabb_margin, grid_cell_size,
@@ -1235,9 +1242,9 @@ def make_blocks(
         ``support_edges`` defaults to the most edge directions touching one face of any of the
         blocks, ``fcp_crosses`` to 128 (0, every slot, where ``support_edges^2`` is not more).
       law: the contact law (``rockjax.blocks.laws``); default ``PenaltyCoulomb()``.
-      check_overlap: refuse blocks that start inside each other deeper than the first step
-        allows (``penetration_limit`` x the pair's smaller bounding radius, at least one of
-        them DYNAMIC); False builds them anyway (to study how a run stops on it).
+      check_overlap: refuse blocks that start inside each other (at least one of them DYNAMIC)
+        deeper than ``START_OVERLAP`` (1e-3) of the smaller block's size, as scene files do;
+        False builds them anyway (to study how a run stops on it).
 
     Returns:
       ``(config, params, state)``; state arrays in float32 (float64 under ``jax_enable_x64``).
@@ -1249,8 +1256,7 @@ def make_blocks(
                               velocities=velocities, omegas=omegas, stroke=stroke, period=period,
                               prescribed_direction=prescribed_direction, prescribed_ramp=prescribed_ramp,
                               paths=paths,
-                              check_overlap=_scalar("penetration_limit", penetration_limit, lo=0.0, lo_open=True,
-                                                    unit="(relative)") if check_overlap else None)
+                              check_overlap=START_OVERLAP if check_overlap else None)
     material = BlockMaterial(density=density, friction_angle_deg=friction_angle_deg, cohesion=cohesion,
                              tensile_strength=tensile_strength, normal_stiffness=normal_stiffness,
                              shear_stiffness=shear_stiffness, penalty_modulus=penalty_modulus,
