@@ -91,7 +91,7 @@ def _check_flags(args) -> None:
 
 
 def _cmd_run(args) -> int:
-    from .driver import Interrupted, SimulationError, check_out, check_times, simulate
+    from .driver import Interrupted, SimulationError, check_out, check_resume, check_times, simulate
     from .observables import scene_observer
 
     try:
@@ -101,6 +101,7 @@ def _cmd_run(args) -> int:
             if out is not None and os.path.abspath(out) != os.path.abspath(args.resume):
                 raise ValueError(f"--out {out} differs from --resume {args.resume}: a resumed run appends to its "
                                  f"own file (leave --out unset)")
+            check_resume(args.resume)
             out = None
         check_times(t_end, frame_dt, names=("t_end (--t-end)", "frame_dt (--frame-dt)"))
         check_out(out)

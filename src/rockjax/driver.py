@@ -33,7 +33,7 @@ from .step import prime, refresh
 from .types import Config, Kind, State, Status
 
 __all__ = ["simulate", "Result", "SimulationError", "Interrupted", "host_frame", "resize", "check_block_dt",
-           "check_times", "check_out"]
+           "check_times", "check_out", "check_resume"]
 
 
 class SimulationError(RuntimeError):
@@ -310,7 +310,7 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
         state = state.replace(blocks=blocks.fit_history(config.blocks, state.blocks))
     ckpt = None
     if resume is not None:
-        ckpt = _read_resume(resume, out)
+        ckpt = check_resume(resume, out)
         out = resume
         if frame_dt is None:
             frame_dt = ckpt.driver["steps_per_frame"] * config.dt
@@ -511,9 +511,10 @@ def _config_json(config: Config) -> str:
     return config_to_json(config)
 
 
-def _read_resume(resume, out):
-    """The newest complete checkpoint of ``resume`` (ValueError naming ``resume`` when the file
-    cannot be resumed; ``out`` must be None or the same file)."""
+def check_resume(resume, out=None):
+    """The newest complete checkpoint (``io.hdf5.Checkpoint``) of the run file ``resume``; a
+    ValueError naming ``resume`` when the file cannot be resumed (missing, unwritable, not a run
+    file, no complete checkpoint); ``out`` must be None or the same file. Host only, no compile."""
     import os
 
     from .io.hdf5 import read_checkpoint

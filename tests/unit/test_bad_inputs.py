@@ -276,6 +276,10 @@ CLI_CASES = [
     ("dx-too-fine-dry", ["dam_break", "--dx", "0.0001", "--dry-run"], r"dx = 0\.0001 m is too fine.*GiB"),
     ("rebuild-period-zero-dry", ["block_on_incline", "--rebuild-period", "0", "--dry-run"], r"--rebuild-period"),
     ("unknown-scene", ["no_such_scene", "--dry-run"], r"unknown scene 'no_such_scene'.*rockjax list"),
+    ("checkpoint-every-zero", ["block_on_incline", "--checkpoint-every", "0", "--dry-run"], r"--checkpoint-every"),
+    ("resume-missing-file", ["block_on_incline", "--resume", "/nonexistent/run.h5", "--quiet"],
+     r"resume = '/nonexistent/run\.h5' is not a file"),
+    ("resume-with-settle", ["block_on_incline", "--resume", "run.h5", "--settle", "1"], r"--settle cannot be combined"),
 ]
 
 
