@@ -259,9 +259,9 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
              keep_frames: Optional[bool] = None, progress: Optional[bool] = None, max_regrows: int = 8,
              observe=None, rebuild_period: Optional[int] = None, tuning=None,
              checkpoint_every: Optional[int] = None, resume: Optional[str] = None) -> Result:
-    """Run ``scene`` to ``t_end`` [s]: output frames sit at whole multiples of ``frame_dt``, each a
-    whole number of steps (``round(frame_dt / dt)``) apart, and the run ends on the first frame at
-    or after ``t_end`` (within those steps' rounding).
+    """Run ``scene`` to ``t_end`` [s]: output frames are a whole number of steps
+    (``round(frame_dt / dt)``) apart, and the run ends on the first frame at or after ``t_end``
+    (within half a step).
 
     Args:
         t_end: end time s.
@@ -328,8 +328,9 @@ def simulate(scene: Scene, *, t_end: float, out: Optional[str] = None, frame_dt:
     progress = sys.stderr.isatty() if progress is None else progress
 
     steps_per_frame = max(1, round(frame_dt / config.dt))
-    # frames sit at (nominal) multiples of frame_dt: the last is the first at or after t_end
-    n_frames = max(1, math.ceil(t_end / frame_dt * (1 - 1e-9)))
+    # the last frame is the first at or after t_end, within half a step (a frame_dt rounded to
+    # whole steps adds no frame for the rounding)
+    n_frames = max(1, math.ceil((t_end - 0.5 * config.dt) / (steps_per_frame * config.dt)))
     if rebuild_period is None:
         period = max(config.rebuild_every, DEFAULT_REBUILD_PERIOD)
     elif int(rebuild_period) != rebuild_period or rebuild_period < 1:
