@@ -17,13 +17,16 @@
 * ``paths``: prescribed motions of any kind (tables, flaps; wave-maker signals: regular, Goring
   solitary, focused group, JONSWAP, CSV records; Biesel transfer functions).
 * ``integrate``: ``advance_blocks``, one central-difference step (seed Eq 5-7).
+* ``cutting`` (host, numpy): rock masses cut into convex blocks along joint sets (``JointSet``,
+  ``cut`` -> ``RockMass``; Shi's block cutting for persistent joints).
 
 This package does not import ``rockjax.sph``.
 """
 
 from .contact import contact_forces
 from .geometry import ConvexPolyhedron, PackedBlocks, box, pack, prism, slab, slope, wedge
-from . import paths
+from . import cutting, paths
+from .cutting import JointSet, RockMass, cut
 from .integrate import advance_blocks, prescribed_motion
 from .laws import ContactLaw, ContactPoint, LawResult, PenaltyCoulomb, SmoothPenaltyCoulomb
 from .model import (
@@ -58,6 +61,10 @@ from .rotation import quat_from_axis_angle, quat_matrix
 
 __all__ = [
     "paths",
+    "cutting",
+    "JointSet",
+    "RockMass",
+    "cut",
     "BlockCapacities",
     "BlockConfig",
     "BlockGeometry",
