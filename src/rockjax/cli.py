@@ -145,7 +145,8 @@ def _cmd_run(args) -> int:
 
 
 def describe(scene, t_end: float) -> dict:
-    """What a run of ``scene`` to ``t_end`` involves: counts, dt, steps, stages, memory estimate."""
+    """What a run of ``scene`` to ``t_end`` involves: counts, dt, steps, stages, memory estimate;
+    for a scene with a cut rock mass its block count and size distribution."""
     c = scene.config
     counts = scene.counts() if scene.state.particles is not None else {"fluid": 0, "wall": 0, "pad": 0}
     n_blocks = c.blocks.n_blocks if c.blocks is not None else 0
@@ -156,7 +157,16 @@ def describe(scene, t_end: float) -> dict:
             "stages": ",".join(s for s, on in (("sph-" + c.scheme.name, c.n_fluid > 0), ("blocks", n_blocks > 0),
                                              ("joint-water", n_blocks > 0 and c.blocks.joint_water),
                                              ("coupling-" + c.coupling_method.name, c.coupling_method.name != "none")) if on),
-            "memory_MB_est": round(4 * bytes_est / 2**20, 1)}
+            "memory_MB_est": round(4 * bytes_est / 2**20, 1), **_rock_mass(scene.meta)}
+
+
+def _rock_mass(meta) -> dict:
+    """A cut rock mass's block count and sizes (equivalent diameters, m), for ``describe``."""
+    sizes = meta.get("rock_mass") if meta is not None else None
+    if not sizes:
+        return {}
+    return {"rock_blocks": sizes["blocks"], "rock_d10_d50_d90_m": "/".join(
+        f"{sizes[k]:.3g}" for k in ("d10_m", "d50_m", "d90_m")), "rock_dropped_slivers": sizes["dropped"]}
 
 
 def _add_list(sub) -> None:

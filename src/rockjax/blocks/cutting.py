@@ -28,7 +28,7 @@ import numpy as np
 
 from .geometry import ConvexPolyhedron, box
 
-__all__ = ["JointSet", "RockMass", "cut", "joint_normal"]
+__all__ = ["JointSet", "RockMass", "cut", "joint_normal", "region"]
 
 
 def joint_normal(dip_deg: float, dip_direction_deg: float) -> np.ndarray:
@@ -183,6 +183,32 @@ def _split(verts: np.ndarray, edges: np.ndarray, n: np.ndarray, d: float, eps: f
 
 def _edges_of(poly: ConvexPolyhedron) -> np.ndarray:
     return np.asarray(poly.edges)
+
+
+def region(lo, hi, planes=()) -> ConvexPolyhedron:
+    """The convex region ``lo <= x <= hi`` ([3] each, m) where also ``n . (x - point) <= 0`` for
+    every ``(point, normal)`` of ``planes`` (the normal points out of the region): a rock mass's
+    domain such as a slope above its sliding plane. ValueError when the planes leave nothing."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    if not (lo.shape == hi.shape == (3,) and np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo)):
+        raise ValueError(f"region: lo, hi must be finite [3] corners with hi > lo on every axis (got {lo}, {hi})")
+    b = box(*(hi - lo))
+    poly = ConvexPolyhedron.from_vertices(b.vertices + 0.5 * (lo + hi))
+    for k, (point, normal) in enumerate(planes):
+        n = np.asarray(normal, float)
+        if not (n.shape == (3,) and np.linalg.norm(n) > 0):
+            raise ValueError(f"region: planes[{k}].normal must be a non-zero [3] vector (got {normal})")
+        n = n / np.linalg.norm(n)
+        d = float(n @ np.asarray(point, float))
+        w = poly.vertices + poly.centroid_world
+        size = 2.0 * poly.bounding_radius
+        if np.all(w @ n - d >= -1e-9 * size):
+            raise ValueError(f"region: planes[{k}] (point {list(point)}, normal {list(normal)}) leaves nothing of "
+                             f"the box; the normal points out of the region")
+        halves = _split(w, _edges_of(poly), n, d, 1e-9 * size)
+        if halves is not None:
+            poly = ConvexPolyhedron.from_vertices(halves[0], angle_tol=0.0)
+    return poly
 
 
 def cut(domain: Domain, joint_sets: Sequence[JointSet], *, min_volume: Optional[float] = None) -> RockMass:

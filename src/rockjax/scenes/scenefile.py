@@ -320,6 +320,14 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
                   "normal_stiffness": _num(unit="N/m", **_POS), "shear_stiffness": _num(unit="N/m", **_POS),
                   "penalty_modulus": _num(default=1e9, unit="Pa", **_POS),
                   "damping_ratio": _num(default=0.2, **_NONNEG), "joint_water": _Key("bool", True)},
+    "rock_mass": {"lo": _Key("vec3", _REQUIRED, "m"), "hi": _Key("vec3", _REQUIRED, "m"),
+                  "planes": _Key("planes", ()), "density": _num(default=2650.0, unit="kg/m^3", **_POS,
+                                                               hint="rock is ~2000-3000 kg/m^3"),
+                  "min_volume": _num(unit="m^3", **_NONNEG), "motion": _choice(("dynamic", "fixed"), "dynamic")},
+    "joint_set": {"dip_deg": _num(default=_REQUIRED, unit="degrees", lo=0.0, hi=90.0),
+                  "dip_direction_deg": _num(default=_REQUIRED, unit="degrees", lo=-360.0, hi=360.0),
+                  "spacing": _num(default=_REQUIRED, unit="m", **_POS), "offset": _num(default=0.0, unit="m"),
+                  "jitter": _num(default=0.0, lo=0.0, hi=1.0, hi_open=True), "seed": _num("int", 0)},
     "gauge": {"name": _Key("str"), "xy": _Key("vec2", _REQUIRED, "m"), "bottom_z": _num(unit="m")},
     "runup": {"point": _Key("vec3", _REQUIRED, "m"), "normal": _Key("vec3", _REQUIRED), "x_min": _num(unit="m")},
     "output": {"frame_dt": _num(unit="s", **_POS), "out": _Key("str")},
@@ -341,7 +349,7 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
                  "interaction_distance": _num(unit="m", **_POS), "guard": _Key("bool", True),
                  "guard_fixed": _Key("bool", False)},
 }
-_ARRAYS = ("water", "fixed", "block", "gauge")
+_ARRAYS = ("water", "fixed", "block", "gauge", "joint_set")
 _FIXED_KEYS = {"box": {"lo", "hi"}, "plane": {"point", "normal"}, "mesh": {"file", "scale", "offset", "convexity_tol"}}
 _BLOCK_KEYS = {"box": {"size"}, "wedge": {"size"}, "mesh": {"file", "hull", "scale", "convexity_tol"}}
 _BUILTIN_TABLES = ("scene", "run", "output")
@@ -765,6 +773,7 @@ class BlockSpec:
     density: float
     motion: str
     path: tuple
+    polyhedron: Any = None  # a block cut from the [rock_mass], placed (shape "rock")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -857,6 +866,7 @@ class SceneSpec:
     gauges: tuple[GaugeSpec, ...]
     runup: RunupSpec | None
     where: _Ctx = dataclasses.field(repr=False, compare=False)
+    rock_mass: dict | None = None  # the [rock_mass]'s cut: RockMass.size_distribution()
 
     @property
     def moving(self) -> tuple[BlockSpec, ...]:
@@ -914,6 +924,44 @@ def _parse_blocks(ctx: _Ctx, doc: dict) -> tuple[BlockSpec, ...]:
     return tuple(out)
 
 
+def _parse_rock_mass(ctx: _Ctx, doc: dict) -> tuple[tuple[BlockSpec, ...], dict | None]:
+    """``[rock_mass]`` cut along the ``[[joint_set]]`` planes (``blocks.cutting``): one BlockSpec per
+    block (shape "rock", its polyhedron placed) and the cut's size distribution."""
+    from ..blocks import cutting
+
+    sets_t = _array_tables(ctx, doc, "joint_set")
+    if "rock_mass" not in doc:
+        if sets_t:
+            ctx.fail_table(("joint_set", 0), "joint sets cut a rock mass: add [rock_mass] (lo, hi, planes)")
+        return (), None
+    rm = _table(ctx, ("rock_mass",), doc["rock_mass"], _SCHEMA["rock_mass"])
+    try:
+        domain = cutting.region(rm["lo"], rm["hi"], rm["planes"])
+    except ValueError as exc:
+        ctx.fail(("rock_mass", "planes" if rm["planes"] else "hi"), str(exc))
+    sets = []
+    for i, js in enumerate(sets_t):
+        try:
+            sets.append(cutting.JointSet(js["dip_deg"], js["dip_direction_deg"], js["spacing"], offset=js["offset"],
+                                         jitter=js["jitter"], seed=js["seed"]))
+        except ValueError as exc:
+            ctx.fail(("joint_set", i), str(exc))
+    rock = cutting.cut(domain, sets, min_volume=rm["min_volume"])
+    if rock.n_blocks == 0:
+        ctx.fail(("rock_mass", "min_volume"), "every block is below min_volume; lower it or widen the spacings")
+    out = tuple(BlockSpec(shape="rock", name=f"rock {k + 1}", size=None, file=None, hull=False, scale=1.0,
+                          convexity_tol=0.0, position=tuple(map(float, poly.centroid_world)),
+                          rotation_axis=(0.0, 0.0, 1.0), rotation_deg=0.0, velocity=(0.0, 0.0, 0.0),
+                          density=rm["density"], motion=rm["motion"], path=("rock_mass",), polyhedron=poly)
+                for k, poly in enumerate(rock.polyhedra))
+    return out, rock.size_distribution()
+
+
+def _block_label(path: tuple) -> str:
+    """How a message names a block: ``block #k`` (a [[block]]) or ``the rock mass``."""
+    return f"block #{path[1] + 1}" if path[0] == "block" else "the rock mass"
+
+
 def parse(ctx: _Ctx, doc: dict, overrides: dict) -> SceneSpec:
     """Check a general scene file's document (``tomllib`` output) and type it: a ``SceneSpec``.
 
@@ -953,6 +1001,8 @@ def parse(ctx: _Ctx, doc: dict, overrides: dict) -> SceneSpec:
         ctx.fail(("domain", "hi"), f"must exceed lo on every axis (lo {list(domain['lo'])}, hi {list(domain['hi'])})")
     fixed = _parse_fixed(ctx, doc, domain is not None)
     blocks = _parse_blocks(ctx, doc)
+    rock_blocks, rock_sizes = _parse_rock_mass(ctx, doc)
+    blocks += rock_blocks
     if not has_water and not any(b.motion == "dynamic" for b in blocks):
         ctx.fail_table(("scene",), "nothing moves: add [[water]] (with [domain] and [sph] dx) or a "
                                    "[[block]] with motion = \"dynamic\"")
@@ -975,7 +1025,7 @@ def parse(ctx: _Ctx, doc: dict, overrides: dict) -> SceneSpec:
         sph=_fields(SphSpec, {**sph, "scheme": scheme, "alpha": alpha, "nu": nu}),
         coupling=_fields(CouplingSpec, {**cpl, "method": Coupling(cpl["method"])}),
         gauges=tuple(_fields(GaugeSpec, g) for g in gauges),
-        runup=_fields(RunupSpec, runup) if runup is not None else None, where=ctx)
+        runup=_fields(RunupSpec, runup) if runup is not None else None, where=ctx, rock_mass=rock_sizes)
 
 
 # ---- build: SceneSpec -> Scene -----------------------------------------------------------------
@@ -1013,6 +1063,9 @@ def _build_blocks(spec: SceneSpec) -> list:
 
     out = []
     for b in spec.blocks:
+        if b.polyhedron is not None:  # cut from the rock mass, in place
+            out.append((b.polyhedron, b))
+            continue
         if b.shape == "box":
             poly = geo.box(*b.size)
         elif b.shape == "wedge":
@@ -1139,7 +1192,7 @@ def build(spec: SceneSpec) -> Scene:
 
     # fixed user blocks are fixed geometry for the water too
     solids = [(s, f.path) for s, f in fixed]
-    solids += [(fixed_from_polyhedron(p, p.centroid_world, name=f"block #{b.path[1] + 1}"), b.path)
+    solids += [(fixed_from_polyhedron(p, p.centroid_world, name=_block_label(b.path) if b.path[0] == "block" else b.name), b.path)
                for p, b in user_blocks if b.motion == "fixed"]
 
     # moving blocks must not start inside fixed geometry
@@ -1159,10 +1212,12 @@ def build(spec: SceneSpec) -> Scene:
     for i, j, depth in initial_overlaps(polys, [p.centroid_world for p in polys]):
         if depth > 1e-3 * 2 * min(polys[i].bounding_radius, polys[j].bounding_radius):
             bi, bj = moving[i][1], moving[j][1]
-            ctx.fail(bj.path + ("position",), f"the block starts {depth:.3g} m inside block #{bi.path[1] + 1} "
+            ctx.fail(bj.path + ("position",), f"the block starts {depth:.3g} m inside {_block_label(bi.path)} "
                                               f"(line {ctx.lines.line(bi.path)}); move them apart")
 
     meta: dict[str, Any] = {"description": spec.description} if spec.description else {}
+    if spec.rock_mass is not None:
+        meta["rock_mass"] = spec.rock_mass
     block_kwargs = mat.block_kwargs()
     if not has_water:  # blocks only
         for s, f in fixed:
