@@ -8,7 +8,8 @@ energy of every frame of a run (both schemes) for the closed-tank energy checks.
 ``piston_transfer``, ``linear_wave`` and ``wave_height`` are the piston wave-maker check: linear
 theory's H/S (tabulated), the dispersion relation, and the height of a recorded wave train;
 ``reflection`` splits gauge records into incident and reflected waves (Mansard & Funke 1980);
-``solitary_profile`` and ``synolakis_runup`` are the solitary wave's closed forms.
+``solitary_profile`` and ``synolakis_runup`` are the solitary wave's closed forms;
+``hoek_bray_regime`` is the block-on-a-plane failure mode (sliding, toppling, both, stable).
 """
 
 from __future__ import annotations
@@ -238,3 +239,15 @@ def synolakis_runup(*, wave_height: float, depth: float, beach_slope: float) -> 
     Valid for non-breaking waves, ``H / d < 0.818 (cot beta)^(-10/9)``."""
     cot = 1.0 / beach_slope
     return depth * 2.831 * math.sqrt(cot) * (wave_height / depth) ** 1.25
+
+
+def hoek_bray_regime(*, plane_dip_deg: float, friction_angle_deg: float, base: float, height: float) -> str:
+    """How a rectangular block of ``base`` (along the dip) x ``height`` [m] resting on a plane
+    dipping ``plane_dip_deg`` with friction ``friction_angle_deg`` fails (Hoek & Bray 1981, Rock
+    Slope Engineering, 3rd ed., fig. 9.2; Goodman & Bray 1976): it slides when the dip exceeds the
+    friction angle, and topples when its weight's line of action falls outside its base,
+    ``base / height < tan(dip)``. Returns "stable", "sliding", "toppling" or "sliding_and_toppling"."""
+    slides = plane_dip_deg > friction_angle_deg
+    topples = base / height < math.tan(math.radians(plane_dip_deg))
+    return {(False, False): "stable", (True, False): "sliding", (False, True): "toppling",
+            (True, True): "sliding_and_toppling"}[(slides, topples)]
