@@ -207,6 +207,27 @@ def sec_driver(doc: Doc):
                  "date"], rows))
 
 
+def sec_checkpoint(doc: Doc):
+    doc.h("Checkpoints and resume (issue 48)")
+    recs = doc.records("checkpoint.jsonl",
+                       "python experiments/bench_checkpoint.py --out experiments/results/checkpoint.jsonl")
+    if recs is None:
+        return
+    doc.p("`experiments/bench_checkpoint.py`: the sliding wedge, 200 steps per frame, 6 frames. A checkpoint (the "
+          "full State, exact dtypes, gzip level 1 for arrays of >= 4096 values) against a frame (x, v, rho, p in "
+          "float32) and against the chunk of steps between two frames (median over the run, after the compile); "
+          "`resume start` = reading the checkpoint and rebuilding the state; `sim s / wall s` of the same run "
+          "without and with a checkpoint at every frame (measured in one process); `bit-identical`: the resumed "
+          "run's final State equals the uninterrupted run's in every array.")
+    rows = [[r.get("dx"), r.get("n_fluid"), r.get("n_wall"), r.get("chunk_s"), r.get("frame_write_s"),
+             r.get("checkpoint_write_s"), r.get("frame_mb"), r.get("checkpoint_mb"), r.get("resume_start_s"),
+             r.get("sim_s_per_wall_s_no_checkpoints"), r.get("sim_s_per_wall_s_checkpoint_every_frame"),
+             r.get("resumed_bit_identical"), r.get("date")] for r in recs]
+    doc.p(table(["dx m", "fluid", "wall", "chunk s", "frame write s", "checkpoint write s", "frame MB",
+                 "checkpoint MB", "resume start s", "sim s / wall s (none)", "(every frame)", "bit-identical",
+                 "date"], rows))
+
+
 def sec_skin(doc: Doc):
     doc.h("Verlet skin: step time at rest and in the developed collapse (3D dam break)")
     recs = doc.records("bench_skin.jsonl",
@@ -1239,7 +1260,7 @@ def sec_waves(doc: Doc):
                      "R err. (H meas.)", "n_fluid", "wall s", "date"], rows))
 
 
-SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
+SECTIONS = [sec_sph, sec_driver, sec_checkpoint, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
             sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_redesign, sec_full_event, sec_waves, sec_stress]
 
 
