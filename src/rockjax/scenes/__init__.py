@@ -4,7 +4,7 @@ read a scene described in a TOML file (``rockjax.scenes.scenefile``); ``settle``
 water before its run."""
 
 from .base import Resolution, Scene, check_param_values, check_params, stable_dt
-from .coupled import block_drop, block_on_incline, floating_box, piston_wavemaker, sliding_wedge, wave_flume
+from .coupled import block_drop, block_on_incline, floating_box, piston_wavemaker, rock_slope, sliding_wedge, wave_flume
 from .fluid import dam_break, hydrostatic_tank
 from .meta import Gauges, RunupSlope, SceneMeta
 from .scenefile import load as load_file, load_scene
@@ -12,6 +12,7 @@ from .settle import settle
 
 BUILTIN = {
     "sliding_wedge": sliding_wedge,
+    "rock_slope": rock_slope,
     "dam_break": dam_break,
     "hydrostatic_tank": hydrostatic_tank,
     "piston_wavemaker": piston_wavemaker,
@@ -21,5 +22,5 @@ BUILTIN = {
     "block_on_incline": block_on_incline,
 }
 
-__all__ = ["Scene", "SceneMeta", "Gauges", "RunupSlope", "Resolution", "BUILTIN", "dam_break", "hydrostatic_tank", "sliding_wedge", "piston_wavemaker", "wave_flume",
+__all__ = ["Scene", "SceneMeta", "Gauges", "RunupSlope", "Resolution", "BUILTIN", "dam_break", "hydrostatic_tank", "sliding_wedge", "rock_slope", "piston_wavemaker", "wave_flume",
            "floating_box", "block_drop", "block_on_incline", "check_params", "check_param_values", "stable_dt", "load_scene", "load_file", "settle"]

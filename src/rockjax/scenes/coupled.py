@@ -1,5 +1,6 @@
-"""Scenes with rock blocks: the seed's sliding wedge and piston wave maker, a floating box, a
-block dropped into a tank, and a blocks-only incline.
+"""Scenes with rock blocks: the seed's sliding wedge and piston wave maker, a jointed rock slope
+(blocks cut from joint sets), a floating box, a block dropped into a tank, and a blocks-only
+incline.
 
 Geometry conventions (SI units, z up): the still-water level is z = 0 unless said otherwise.
 ``sliding_wedge``: the slide slope's surface passes through the origin and descends along +x at
@@ -26,7 +27,7 @@ from .block_sampling import sample_block_particles, submerged_pair_count
 from .meta import SceneMeta
 from .shapes import fill, plane, shell
 
-__all__ = ["coupled_scene", "sliding_wedge", "floating_box", "block_drop", "piston_wavemaker", "block_on_incline",
+__all__ = ["coupled_scene", "sliding_wedge", "rock_slope", "floating_box", "block_drop", "piston_wavemaker", "block_on_incline",
            "sample_block_particles", "coupling_params"]
 
 
@@ -206,6 +207,63 @@ def _flume_walls_and_water(*, dx, layers, halfspaces, water_halfspaces, lo, hi):
     return water, walls
 
 
+def _slide_flume(*, dx, slope_angle_deg, water_depth, flat_length, far_slope_deg, flume_width, up, reach, z_top,
+                 h_factor) -> dict:
+    """The flume of a slide into water (``sliding_wedge``, ``rock_slope``): the slide slope's
+    surface through the origin descending along +x, its FIXED slope block spanning ``up`` [m]
+    above the shoreline (along the slope) to past the toe (+ 2 ``reach``), the floor z =
+    -water_depth, the far beach after ``flat_length``, side walls at y = 0 and ``flume_width``,
+    open up to ``z_top``. Returns the slope and floor blocks with their positions, the water and
+    wall particles, the domain, ``x_toe``, ``x_beach`` and the observers' meta (three gauges on the
+    flat, run-up on the beach)."""
+    blocks = _blocks_api()
+    geo = blocks.geometry
+    th = math.radians(slope_angle_deg)
+    be = math.radians(far_slope_deg)
+    t_ = math.tan(th)
+    s_dir = np.array([math.cos(th), 0.0, -math.sin(th)])  # down-slope
+    x_toe = water_depth / t_
+    x_beach = x_toe + flat_length
+    thick = max(0.2, 4 * dx)
+    # the slope block's top face passes through the origin; slide it along the slope so that it
+    # spans from above the slide's start down past the toe
+    down = water_depth / math.sin(th)
+    slope_len = up + down + 2 * reach
+    slope_blk = geo.slope(slope_len, flume_width, thick, slope_angle_deg)
+    slope_pos = slope_blk.centroid_world + np.array([0.0, 0.5 * flume_width, 0.0]) + 0.5 * (down - up) * s_dir
+    floor_len = flat_length + 2 * x_toe
+    floor = geo.slab(floor_len, flume_width, thick)
+    floor_pos = floor.centroid_world + np.array([x_toe + 0.5 * flat_length, 0.5 * flume_width, -water_depth])
+    n_slope = np.array([math.sin(th), 0.0, math.cos(th)])
+    n_beach = np.array([-math.sin(be), 0.0, math.cos(be)])
+    x_left = -(z_top / t_) - 2 * dx
+    x_right = x_beach + (z_top + water_depth) / math.tan(be) + 2 * dx
+    container = [
+        plane(-n_slope, [0.0, 0.0, 0.0]), plane(-n_beach, [x_beach, 0.0, -water_depth]),
+        plane([0, 0, -1], [0, 0, -water_depth]), plane([0, -1, 0], [0, 0, 0]), plane([0, 1, 0], [0, flume_width, 0]),
+        plane([1, 0, 0], [x_right, 0, 0]), plane([-1, 0, 0], [x_left, 0, 0]),
+    ]
+    water_hs = container + [plane([0, 0, 1], [0, 0, 0])]
+    layers = Resolution(dx, h_factor).wall_layers
+    # lattice aligned so that the floor (z = -depth) and the side walls fall on cell faces
+    lo = np.array([x_left, 0.0, -water_depth])
+    n_up = math.ceil((z_top + water_depth) / dx)
+    hi = np.array([x_left + math.ceil((x_right - x_left) / dx) * dx, flume_width, -water_depth + n_up * dx])
+    water, walls = _flume_walls_and_water(dx=dx, layers=layers, halfspaces=container, water_halfspaces=water_hs,
+                                          lo=lo, hi=hi)
+    pad = layers * dx
+    observers = dict(runup_slope=dict(point=[x_beach, 0.5 * flume_width, -water_depth], normal=n_beach.tolist(),
+                                      x_min=x_beach),
+                     gauges=dict(names=["near", "middle", "far"],
+                                 xy=[[x_toe + 0.2 * flat_length, 0.5 * flume_width],
+                                     [x_toe + 0.5 * flat_length, 0.5 * flume_width],
+                                     [x_toe + 0.8 * flat_length, 0.5 * flume_width]],
+                                 bottom_z=[-water_depth] * 3))
+    return dict(slope=slope_blk, slope_pos=slope_pos, floor=floor, floor_pos=floor_pos, water=water, walls=walls,
+                domain_lo=lo - pad, domain_hi=hi + pad + np.array([0, 0, 2 * z_top]), x_toe=x_toe, x_beach=x_beach,
+                observers=observers)
+
+
 def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_density: float = 2500.0,
                   friction_angle_deg: float = 15.0, block_length: float = 0.4, block_width: float = 0.2,
                   water_depth: float = 0.4, flat_length: float = 1.0, far_slope_deg: float = 30.0,
@@ -245,7 +303,6 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
     blocks = _blocks_api()
     geo = blocks.geometry
     th = math.radians(slope_angle_deg)
-    be = math.radians(far_slope_deg)
     t_, c_ = math.tan(th), math.cos(th)
     H = block_length * t_
     # the wedge: front-bottom corner on the slope start_distance up from the shoreline
@@ -256,58 +313,133 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
     tri = [(fx, fz), (fx, fz + H), (fx - block_length, fz + H)]
     pts = np.array([[x, y, z] for y in (y0, y0 + block_width) for (x, z) in tri])
     wedge = geo.ConvexPolyhedron.from_vertices(pts)
-    x_toe = water_depth / t_
-    x_beach = x_toe + flat_length
-    thick = max(0.2, 4 * dx)
-    # the slope block's top face passes through the origin; slide it along the slope so that it
-    # spans from above the wedge's start down past the toe
     up = start_distance + block_length / c_ + block_length
-    down = water_depth / math.sin(th)
-    slope_len = up + down + 2 * block_length
-    slope_blk = geo.slope(slope_len, flume_width, thick, slope_angle_deg)
-    slope_pos = slope_blk.centroid_world + np.array([0.0, 0.5 * flume_width, 0.0]) + 0.5 * (down - up) * s_dir
-    floor_len = flat_length + 2 * x_toe
-    floor = geo.slab(floor_len, flume_width, thick)
-    floor_pos = floor.centroid_world + np.array([x_toe + 0.5 * flat_length, 0.5 * flume_width, -water_depth])
-    n_slope = np.array([math.sin(th), 0.0, math.cos(th)])
-    n_beach = np.array([-math.sin(be), 0.0, math.cos(be)])
     z_top = max(H + start_distance * math.sin(th) + 0.1, 0.5 * water_depth)
-    x_left = -(z_top / t_) - 2 * dx
-    x_right = x_beach + (z_top + water_depth) / math.tan(be) + 2 * dx
-    container = [
-        plane(-n_slope, [0.0, 0.0, 0.0]), plane(-n_beach, [x_beach, 0.0, -water_depth]),
-        plane([0, 0, -1], [0, 0, -water_depth]), plane([0, -1, 0], [0, 0, 0]), plane([0, 1, 0], [0, flume_width, 0]),
-        plane([1, 0, 0], [x_right, 0, 0]), plane([-1, 0, 0], [x_left, 0, 0]),
-    ]
-    water_hs = container + [plane([0, 0, 1], [0, 0, 0])]
-    layers = Resolution(dx, h_factor).wall_layers
-    # lattice aligned so that the floor (z = -depth) and the side walls fall on cell faces
-    lo = np.array([x_left, 0.0, -water_depth])
-    n_up = math.ceil((z_top + water_depth) / dx)
-    hi = np.array([x_left + math.ceil((x_right - x_left) / dx) * dx, flume_width, -water_depth + n_up * dx])
-    water, walls = _flume_walls_and_water(dx=dx, layers=layers, halfspaces=container, water_halfspaces=water_hs,
-                                          lo=lo, hi=hi)
-    pad = layers * dx
-    dom_lo = lo - pad
-    dom_hi = hi + pad + np.array([0, 0, 2 * z_top])
+    f = _slide_flume(dx=dx, slope_angle_deg=slope_angle_deg, water_depth=water_depth, flat_length=flat_length,
+                     far_slope_deg=far_slope_deg, flume_width=flume_width, up=up, reach=block_length, z_top=z_top,
+                     h_factor=h_factor)
+    slope_blk, slope_pos, floor, floor_pos = f["slope"], f["slope_pos"], f["floor"], f["floor_pos"]
+    water, walls, dom_lo, dom_hi = f["water"], f["walls"], f["domain_lo"], f["domain_hi"]
     c0 = 10.0 * math.sqrt(GRAVITY * (water_depth + z_top)) if c0 is None else _positive("sliding_wedge: c0", c0)
     motion = (blocks.Motion.DYNAMIC, blocks.Motion.FIXED, blocks.Motion.FIXED)
     meta = dict(slope_angle_deg=slope_angle_deg, water_depth=water_depth, flat_length=flat_length,
-                far_slope_deg=far_slope_deg, flume_width=flume_width, still_level=0.0, x_toe=x_toe,
-                x_beach=x_beach, block_height=H,
-                runup_slope=dict(point=[x_beach, 0.5 * flume_width, -water_depth], normal=n_beach.tolist(),
-                                 x_min=x_beach),
-                gauges=dict(names=["near", "middle", "far"],
-                            xy=[[x_toe + 0.2 * flat_length, 0.5 * flume_width],
-                                [x_toe + 0.5 * flat_length, 0.5 * flume_width],
-                                [x_toe + 0.8 * flat_length, 0.5 * flume_width]],
-                            bottom_z=[-water_depth] * 3))
+                far_slope_deg=far_slope_deg, flume_width=flume_width, still_level=0.0, x_toe=f["x_toe"],
+                x_beach=f["x_beach"], block_height=H, **f["observers"])
     return coupled_scene(name="sliding_wedge", dx=dx, polyhedra=[wedge, slope_blk, floor],
                          positions=[wedge.centroid_world, slope_pos, floor_pos], motion=motion,
                          block_density=[block_density, 2500.0, 2500.0], friction_angle_deg=friction_angle_deg,
                          fluid_x=water, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi, still_level=0.0,
                          coupling=coupling, c0=c0, h_factor=h_factor, rebuild_every=rebuild_every,
                          joint_water=joint_water, meta=meta)
+
+
+def rock_slope(*, dx: float = 0.02, failure: str = "planar", slope_angle_deg: float | None = None,
+               friction_angle_deg: float | None = None, rock_length: float = 0.6, rock_thickness: float | None = None,
+               rock_width: float = 0.3, column_spacing: float | None = None, bed_spacing: float | None = None,
+               lateral_spacing: float = 0.1, jitter: float = 0.0, seed: int = 0, block_density: float = 2600.0,
+               water_depth: float = 0.3, flat_length: float = 1.2, far_slope_deg: float = 20.0,
+               flume_width: float = 0.4, start_distance: float = 0.05, coupling: Coupling = Coupling.PENALTY,
+               h_factor: float = 1.3, c0: float | None = None) -> Scene:
+    """A jointed rock mass on a slope above a reservoir, cut into blocks (``blocks.cutting``), that
+    fails into the water and makes a wave (gauges on the flat, run-up on the far beach).
+
+    The rock mass is a slab of ``rock_thickness`` on the slide plane (``slope_angle_deg``), from
+    ``start_distance`` to ``start_distance + rock_length`` up-slope of the shoreline [m] along the
+    slope, ``rock_width`` across, cut by cross joints normal to the slope (``column_spacing``),
+    bedding parallel to it (``bed_spacing``; None: none) and vertical joints along it
+    (``lateral_spacing``), all persistent, with an optional seeded spacing ``jitter``. One friction
+    angle holds on every contact; faces pressed together under water carry the still water's
+    hydrostatic pressure (``blocks.joint_water``, as in ``sliding_wedge``). ``failure`` picks the defaults of the Hoek & Bray regime it is
+    built for (``validation.hoek_bray_regime`` of the plane's dip, the friction angle and a block's
+    base / height, in ``meta["hoek_bray_regime"]``):
+
+    * ``"planar"``: a 35 degree plane, 25 degree friction, blocks 0.06 m along the slope on 0.04 m
+      beds of a 0.12 m slab (base / height 1.5 > tan 35): the mass slides (90 blocks).
+    * ``"toppling"``: a 20 degree plane, 40 degree friction, columns 0.04 m wide and 0.2 m tall
+      (base / height 0.2 < tan 20; no bedding): the columns topple, none slides.
+
+    The flume is ``sliding_wedge``'s (same conventions). Args in SI units; the others as there.
+    """
+    if failure not in ("planar", "toppling"):
+        raise ValueError(f"rock_slope: failure must be 'planar' or 'toppling' (got {failure!r})")
+    planar = failure == "planar"
+    slope_angle_deg = (35.0 if planar else 20.0) if slope_angle_deg is None else slope_angle_deg
+    friction_angle_deg = (25.0 if planar else 40.0) if friction_angle_deg is None else friction_angle_deg
+    rock_thickness = (0.12 if planar else 0.2) if rock_thickness is None else rock_thickness
+    column_spacing = (0.06 if planar else 0.04) if column_spacing is None else column_spacing
+    if bed_spacing is None and planar:
+        bed_spacing = 0.04
+    dx = _positive("rock_slope: dx", dx)
+    block_density = _density("rock_slope: block_density", block_density)
+    for nm, v in (("rock_length", rock_length), ("rock_thickness", rock_thickness), ("rock_width", rock_width),
+                  ("column_spacing", column_spacing), ("lateral_spacing", lateral_spacing),
+                  ("water_depth", water_depth), ("flat_length", flat_length), ("flume_width", flume_width),
+                  ("start_distance", start_distance)):
+        _positive(f"rock_slope: {nm}", v)
+    if bed_spacing is not None:
+        _positive("rock_slope: bed_spacing", bed_spacing)
+    if not 5.0 <= slope_angle_deg <= 60.0:
+        raise ValueError(f"rock_slope: slope_angle_deg must be in [5, 60] degrees (got {slope_angle_deg})")
+    if not 0.0 <= friction_angle_deg < 90.0:
+        raise ValueError(f"rock_slope: friction_angle_deg must be in [0, 90) degrees (got {friction_angle_deg})")
+    if not 5.0 <= far_slope_deg <= 60.0:
+        raise ValueError(f"rock_slope: far_slope_deg must be in [5, 60] degrees (got {far_slope_deg})")
+    if rock_width > flume_width - 2 * dx + 1e-9:
+        raise ValueError(f"rock_slope: rock_width ({rock_width} m) must leave >= 1 dx on each side in the flume "
+                         f"(flume_width {flume_width} m); make the flume wider or the rock mass narrower")
+    if water_depth < 4 * dx:
+        raise ValueError(f"rock_slope: water_depth must hold >= 4 particles; use dx <= {water_depth / 4:.4g} m")
+    from ..blocks import cutting
+    from ..validation import hoek_bray_regime
+
+    blocks = _blocks_api()
+    th = math.radians(slope_angle_deg)
+    s_dir = np.array([math.cos(th), 0.0, -math.sin(th)])  # down-slope
+    n_slope = np.array([math.sin(th), 0.0, math.cos(th)])
+    gap = 1e-3  # the mass starts 1 mm above the plane
+    y0 = 0.5 * (flume_width - rock_width)
+    back = start_distance + rock_length
+    top = rock_thickness + gap
+    z_top = back * math.sin(th) + top * math.cos(th) + 0.1
+    reach = 2.0 * max(rock_length, rock_thickness)
+    domain = cutting.region(
+        [-back * math.cos(th) - top, y0, -rock_length - top], [top + rock_length, y0 + rock_width, z_top],
+        [(gap * n_slope, -n_slope), (top * n_slope, n_slope), (-start_distance * s_dir, s_dir),
+         (-back * s_dir, -s_dir)])
+    sets = [cutting.JointSet(90.0 - slope_angle_deg, 270.0, column_spacing, offset=start_distance, jitter=jitter,
+                             seed=seed),
+            cutting.JointSet(90.0, 0.0, lateral_spacing, offset=y0, jitter=jitter, seed=seed + 1)]
+    if bed_spacing is not None:
+        sets.append(cutting.JointSet(slope_angle_deg, 90.0, bed_spacing, offset=gap, jitter=jitter, seed=seed + 2))
+    rock = cutting.cut(domain, sets)
+    f = _slide_flume(dx=dx, slope_angle_deg=slope_angle_deg, water_depth=water_depth, flat_length=flat_length,
+                     far_slope_deg=far_slope_deg, flume_width=flume_width, up=back + reach, reach=reach,
+                     z_top=z_top, h_factor=h_factor)
+    c0 = 10.0 * math.sqrt(GRAVITY * (water_depth + z_top)) if c0 is None else _positive("rock_slope: c0", c0)
+    B = rock.n_blocks
+    # Contact stiffness: small blocks falling into the reservoir hit the floor and each other at up
+    # to the free-fall speed from the mass's top; a penalty spring stops a block of mass m at speed
+    # v within v sqrt(m / k), so k is chosen to keep that under half the depth at which a step
+    # stops on BLOCK_PENETRATION (penetration_limit x the smallest bounding radius). Softer, as
+    # coupled_scene would make it to match the water's step, the blocks sink into one another.
+    v_max = math.sqrt(2.0 * GRAVITY * (z_top + water_depth))
+    m_max = block_density * float(np.max(rock.volumes))
+    r_min = min(p.bounding_radius for p in rock.polyhedra)
+    k_rock = m_max * v_max**2 / (0.5 * 0.1 * r_min) ** 2
+    height = bed_spacing if bed_spacing is not None and bed_spacing < rock_thickness else rock_thickness
+    meta = dict(failure=failure, slope_angle_deg=slope_angle_deg, friction_angle_deg=friction_angle_deg,
+                hoek_bray_regime=hoek_bray_regime(plane_dip_deg=slope_angle_deg, friction_angle_deg=friction_angle_deg,
+                                                  base=column_spacing, height=height),
+                rock_mass=rock.size_distribution(), water_depth=water_depth, flat_length=flat_length,
+                far_slope_deg=far_slope_deg, flume_width=flume_width, still_level=0.0, x_toe=f["x_toe"],
+                x_beach=f["x_beach"], **f["observers"])
+    return coupled_scene(name="rock_slope", dx=dx, polyhedra=list(rock.polyhedra) + [f["slope"], f["floor"]],
+                         positions=np.concatenate([rock.positions, [f["slope_pos"], f["floor_pos"]]]),
+                         motion=(blocks.Motion.DYNAMIC,) * B + (blocks.Motion.FIXED,) * 2,
+                         block_density=[block_density] * B + [2500.0, 2500.0], friction_angle_deg=friction_angle_deg,
+                         fluid_x=f["water"], wall_x=f["walls"], domain_lo=f["domain_lo"], domain_hi=f["domain_hi"],
+                         still_level=0.0, coupling=coupling, c0=c0, h_factor=h_factor, meta=meta,
+                         joint_water=True, block_kwargs=dict(normal_stiffness=k_rock))
 
 
 def _box_tank(*, dx, length, width, depth, height, layers):
