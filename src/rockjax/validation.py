@@ -246,7 +246,9 @@ def hoek_bray_regime(*, plane_dip_deg: float, friction_angle_deg: float, base: f
     dipping ``plane_dip_deg`` with friction ``friction_angle_deg`` fails (Hoek & Bray 1981, Rock
     Slope Engineering, 3rd ed., fig. 9.2; Goodman & Bray 1976): it slides when the dip exceeds the
     friction angle, and topples when its weight's line of action falls outside its base,
-    ``base / height < tan(dip)``. Returns "stable", "sliding", "toppling" or "sliding_and_toppling"."""
+    ``base / height < tan(dip)``. Returns "stable", "sliding", "toppling" or "sliding_and_toppling".
+    The chart, not the onset dynamics: near its lines a toppling block's pivot may slip or a
+    sliding one tip (tests/blocks/test_physics.py ``expected_regime`` checks both views)."""
     slides = plane_dip_deg > friction_angle_deg
     topples = base / height < math.tan(math.radians(plane_dip_deg))
     return {(False, False): "stable", (True, False): "sliding", (False, True): "toppling",
