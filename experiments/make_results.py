@@ -1260,7 +1260,9 @@ def sec_soak(doc: Doc):
           "max_t (B(t) - B(0)) / E_ref (bounded: <= `tol`); `rebound` = max_t (B(t) - min_{s<=t} B(s)) / E_ref "
           "(energy regained after it was lost); `lost` = (B(0) - B(end)) / E_ref; `late drift`: wedge, "
           "|E(end) - E(mid)| / E_ref; flume, the change of E averaged over 10 wave periods, after the middle "
-          "against before the end, / E_ref.")
+          "against before the end, / E_ref. The wedge's `rebound` is the water's potential energy rising slowly "
+          "after the wedge has stopped (from ~7.5 s on, with the water's kinetic energy small; like the WCSPH rest-state "
+          "creep of `tests/stress/test_long_run.py`), levelling off towards the end (`late drift`).")
     rows = [[r["scene"], r["dx"], r["n_fluid"], r["steps"], r["dt"], r["sim_s"], r["wall_s"], r["ms_per_step"],
              r.get("cpu_ms_per_step"), r["sim_s_per_wall_s"], r["particle_steps_per_s"], r["mass_drift"],
              r["mass_bit_identical"], r["outside_max"], r["in_block_max"], r["min_clearance_over_dx"], r["nan_seen"],
@@ -1272,7 +1274,7 @@ def sec_soak(doc: Doc):
     doc.p(table(["scene", "dx [m]", "n_fluid", "steps", "dt [s]", "sim s", "wall s", "ms/step", "CPU ms/step",
                  "sim s / wall s", "particle-steps/s", "mass drift", "mass bit-identical", "outside", "in block",
                  "min clear. / dx", "NaN", "E_ref [J]", "growth", "tol", "rebound", "late drift", "lost",
-                 "max E / E0", "max |v| [m/s]", "load", "date"], rows))
+                 "max E / E0", "max speed [m/s]", "load", "date"], rows))
 
 
 SECTIONS = [sec_sph, sec_driver, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
