@@ -3,7 +3,7 @@
 Reads every ``*.jsonl`` (one JSON record a line; other lines ignored) and ``*.json`` there and
 writes markdown tables: SPH throughput and scaling, time vs error (rockjax and the peers), rockjax
 vs the peer codes, blocks vs MuJoCo, the coupled-step split, gradients (backward / forward, memory
-vs T) and ensembles, calibration, piston transfer, wedge coupling, and the stress suite. Each
+vs T) and ensembles, calibration, piston transfer, wedge coupling, the stress suite and the soak. Each
 table says which file it comes from and when that file was recorded (its last git commit date,
 else its modification date) and on what (the records' own machine fields where they have them).
 A table whose file is missing says so. Nothing is measured here.
@@ -1260,8 +1260,46 @@ def sec_waves(doc: Doc):
                      "R err. (H meas.)", "n_fluid", "wall s", "date"], rows))
 
 
+def sec_soak(doc: Doc):
+    doc.h("Long-run soak (issue 48): 1e5 float32 steps of the coupled wedge and a wave flume")
+    recs = doc.records("soak.jsonl", "python experiments/soak.py")
+    if recs is None:
+        return
+    doc.p("`experiments/soak.py` (the same runs as `tests/stress/test_soak.py`): `sliding_wedge` (the README demo, "
+          "penalty coupling, joint water) and `wave_flume` (regular waves with the paddle running the whole time, "
+          "a sponge, then a 1:2 beach; periodic 2D slab, boundary-particle paddle; the set-up below), each 1e5 "
+          "steps in float32 at a coarse dx, frames every 80 steps. `ms/step`, `CPU ms/step`: "
+          "from the second frame on (the first includes the compile), wall and this process's CPU time; the "
+          "machine was shared (`load`). Mass: the float32 fluid mass at every frame against the start "
+          "(`drift`: largest relative change; `bit-identical`: equal at every frame). `outside`: the most FLUID "
+          "particles at one frame more than dx/2 outside the walls (behind the first wall layer; the flume's "
+          "paddle face counts as a wall); `in block`: more than dx/2 inside the wedge / paddle; `min clear.`: "
+          "the smallest distance of a fluid particle inside the walls over the run (negative: beyond a face, "
+          "not beyond the first layer). Energy E: fluid kinetic + potential + elastic, + the wedge's kinetic + "
+          "potential. Wedge: budget B = E, E_ref = m_wedge g (z_wedge(0) + depth); flume: B = E - W with W the "
+          "paddle's work on the water (its power at the frames, trapezoid), E_ref = max |W|. `growth` = "
+          "max_t (B(t) - B(0)) / E_ref (bounded: <= `tol`); `rebound` = max_t (B(t) - min_{s<=t} B(s)) / E_ref "
+          "(energy regained after it was lost); `lost` = (B(0) - B(end)) / E_ref; `late drift`: wedge, "
+          "|E(end) - E(mid)| / E_ref; flume, the change of E averaged over 10 wave periods, after the middle "
+          "against before the end, / E_ref. The wedge's `rebound` is the water's potential energy rising slowly "
+          "after the wedge has stopped (from ~7.5 s on, with the water's kinetic energy small; like the WCSPH rest-state "
+          "creep of `tests/stress/test_long_run.py`), levelling off towards the end (`late drift`).")
+    rows = [[r["scene"], r["dx"], r["n_fluid"], r["steps"], r["dt"], r["sim_s"], r["wall_s"], r["ms_per_step"],
+             r.get("cpu_ms_per_step"), r["sim_s_per_wall_s"], r["particle_steps_per_s"], r["mass_drift"],
+             r["mass_bit_identical"], r["outside_max"], r["in_block_max"], r["min_clearance_over_dx"], r["nan_seen"],
+             r["E_ref"], r["growth"], r["growth_tol"], r["rebound"], r["late_drift"], r["lost"],
+             r.get("max_E_over_E0"), r["vmax"], r.get("load_avg_1m"), r.get("date")] for r in recs]
+    for sc in sorted({r["scene"] for r in recs}):
+        su = [r for r in recs if r["scene"] == sc][-1].get("setup") or {}
+        doc.p(f"Set-up `{sc}`: " + ", ".join(f"{k} {fmt(v)}" for k, v in su.items()) + ".")
+    doc.p(table(["scene", "dx [m]", "n_fluid", "steps", "dt [s]", "sim s", "wall s", "ms/step", "CPU ms/step",
+                 "sim s / wall s", "particle-steps/s", "mass drift", "mass bit-identical", "outside", "in block",
+                 "min clear. / dx", "NaN", "E_ref [J]", "growth", "tol", "rebound", "late drift", "lost",
+                 "max E / E0", "max speed [m/s]", "load", "date"], rows))
+
+
 SECTIONS = [sec_sph, sec_driver, sec_checkpoint, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
-            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_redesign, sec_full_event, sec_waves, sec_stress]
+            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_redesign, sec_full_event, sec_waves, sec_stress, sec_soak]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:
