@@ -340,8 +340,9 @@ def rock_slope(*, dx: float = 0.02, failure: str = "planar", slope_angle_deg: fl
                water_depth: float = 0.3, flat_length: float = 1.2, far_slope_deg: float = 20.0,
                flume_width: float = 0.4, start_distance: float = 0.05, coupling: Coupling = Coupling.PENALTY,
                h_factor: float = 1.3, c0: float | None = None) -> Scene:
-    """A jointed rock mass on a slope above a reservoir, cut into blocks (``blocks.cutting``), that
-    fails into the water and makes a wave (gauges on the flat, run-up on the far beach).
+    """A jointed rock mass cut from joint sets fails from a slope into a reservoir and makes a wave.
+
+    The blocks are cut by ``blocks.cutting``; gauges on the flat, run-up on the far beach.
 
     The rock mass is a slab of ``rock_thickness`` on the slide plane (``slope_angle_deg``), from
     ``start_distance`` to ``start_distance + rock_length`` up-slope of the shoreline [m] along the
