@@ -1260,6 +1260,27 @@ def sec_waves(doc: Doc):
                      "R err. (H meas.)", "n_fluid", "wall s", "date"], rows))
 
 
+def sec_rock_slope(doc: Doc):
+    doc.h("Rock slopes (issue 46): a jointed rock mass into a reservoir")
+    recs = doc.records("rock_slope.jsonl", "python experiments/rock_slope.py --failure FAILURE --t-end 1.2 "
+                       "--out experiments/results/rock_slope.jsonl")
+    if recs is None:
+        return
+    doc.p("`experiments/rock_slope.py`: `scenes.rock_slope` at dx 0.04 (its defaults otherwise; contact stiffness "
+          "from the fastest impact, dt below the water's). `regime`: Hoek & Bray's chart for one block. Motion at "
+          "the end against the start: along the slope (mean, min, max over the blocks), rotation (median, max, "
+          "blocks over 10 degrees); gauges on the flat and run-up on the far beach (m, against the still level); "
+          "cost: simulated s per wall s and block-steps/s (blocks x steps / wall s) on the shared 2-core machine.")
+    rows = [[r.get("failure"), r.get("regime"), r.get("n_rock"), r.get("n_fluid"), r.get("dt"), r.get("simulated_s"),
+             r.get("error") or "-", r.get("along_slope_mean_m"), r.get("along_slope_min_m"), r.get("along_slope_max_m"),
+             r.get("tilt_median_deg"), r.get("tilt_max_deg"), r.get("blocks_tilted_over_10deg"),
+             " / ".join(f"{g:.3f}" for g in r.get("gauge_max_m", [])), r.get("runup_max_m"), r.get("sim_s_per_wall_s"),
+             r.get("block_steps_per_s"), r.get("date")] for r in recs]
+    doc.p(table(["failure", "regime", "blocks", "water", "dt s", "sim s", "error", "along mean m", "min", "max",
+                 "tilt median deg", "max", "> 10 deg", "gauge max m", "run-up max m", "sim s / wall s",
+                 "block-steps/s", "date"], rows))
+
+
 def sec_soak(doc: Doc):
     doc.h("Long-run soak (issue 48): 1e5 float32 steps of the coupled wedge and a wave flume")
     recs = doc.records("soak.jsonl", "python experiments/soak.py")
@@ -1299,7 +1320,7 @@ def sec_soak(doc: Doc):
 
 
 SECTIONS = [sec_sph, sec_driver, sec_checkpoint, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
-            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_redesign, sec_full_event, sec_waves, sec_stress, sec_soak]
+            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_redesign, sec_full_event, sec_waves, sec_stress, sec_soak, sec_rock_slope]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:
