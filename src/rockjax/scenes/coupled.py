@@ -207,6 +207,21 @@ def _flume_walls_and_water(*, dx, layers, halfspaces, water_halfspaces, lo, hi):
     return water, walls
 
 
+def _check_slide_flume(name, *, dx, slope_angle_deg, far_slope_deg, water_depth, flume_width, width) -> None:
+    """Refuse what ``_slide_flume`` cannot build (ValueError naming ``name``'s option): slopes outside
+    [5, 60] degrees, a slide ``width = (option, value, what)`` leaving < 1 dx beside it in the flume,
+    a depth of fewer than 4 particles."""
+    for key, angle in (("slope_angle_deg", slope_angle_deg), ("far_slope_deg", far_slope_deg)):
+        if not 5.0 <= angle <= 60.0:
+            raise ValueError(f"{name}: {key} must be in [5, 60] degrees (got {angle})")
+    key, value, what = width
+    if value > flume_width - 2 * dx + 1e-9:
+        raise ValueError(f"{name}: {key} ({value} m) must leave >= 1 dx on each side in the flume "
+                         f"(flume_width {flume_width} m); make the flume wider or the {what} narrower")
+    if water_depth < 4 * dx:
+        raise ValueError(f"{name}: water_depth must hold >= 4 particles; use dx <= {water_depth / 4:.4g} m")
+
+
 def _slide_flume(*, dx, slope_angle_deg, water_depth, flat_length, far_slope_deg, flume_width, up, reach, z_top,
                  h_factor) -> dict:
     """The flume of a slide into water (``sliding_wedge``, ``rock_slope``): the slide slope's
@@ -291,15 +306,8 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
     for nm, v in (("block_length", block_length), ("block_width", block_width), ("water_depth", water_depth),
                   ("flat_length", flat_length), ("flume_width", flume_width)):
         _positive(f"sliding_wedge: {nm}", v)
-    if not 5.0 <= slope_angle_deg <= 60.0:
-        raise ValueError(f"sliding_wedge: slope_angle_deg must be in [5, 60] degrees (got {slope_angle_deg})")
-    if not 5.0 <= far_slope_deg <= 60.0:
-        raise ValueError(f"sliding_wedge: far_slope_deg must be in [5, 60] degrees (got {far_slope_deg})")
-    if block_width > flume_width - 2 * dx + 1e-9:
-        raise ValueError(f"sliding_wedge: block_width ({block_width} m) must leave >= 1 dx on each side in the flume "
-                         f"(flume_width {flume_width} m); make the flume wider or the block narrower")
-    if water_depth < 4 * dx:
-        raise ValueError(f"sliding_wedge: water_depth must hold >= 4 particles; use dx <= {water_depth / 4:.4g} m")
+    _check_slide_flume("sliding_wedge", dx=dx, slope_angle_deg=slope_angle_deg, far_slope_deg=far_slope_deg,
+                       water_depth=water_depth, flume_width=flume_width, width=("block_width", block_width, "block"))
     blocks = _blocks_api()
     geo = blocks.geometry
     th = math.radians(slope_angle_deg)
@@ -379,17 +387,10 @@ def rock_slope(*, dx: float = 0.02, failure: str = "planar", slope_angle_deg: fl
         _positive(f"rock_slope: {nm}", v)
     if bed_spacing is not None:
         _positive("rock_slope: bed_spacing", bed_spacing)
-    if not 5.0 <= slope_angle_deg <= 60.0:
-        raise ValueError(f"rock_slope: slope_angle_deg must be in [5, 60] degrees (got {slope_angle_deg})")
     if not 0.0 <= friction_angle_deg < 90.0:
         raise ValueError(f"rock_slope: friction_angle_deg must be in [0, 90) degrees (got {friction_angle_deg})")
-    if not 5.0 <= far_slope_deg <= 60.0:
-        raise ValueError(f"rock_slope: far_slope_deg must be in [5, 60] degrees (got {far_slope_deg})")
-    if rock_width > flume_width - 2 * dx + 1e-9:
-        raise ValueError(f"rock_slope: rock_width ({rock_width} m) must leave >= 1 dx on each side in the flume "
-                         f"(flume_width {flume_width} m); make the flume wider or the rock mass narrower")
-    if water_depth < 4 * dx:
-        raise ValueError(f"rock_slope: water_depth must hold >= 4 particles; use dx <= {water_depth / 4:.4g} m")
+    _check_slide_flume("rock_slope", dx=dx, slope_angle_deg=slope_angle_deg, far_slope_deg=far_slope_deg,
+                       water_depth=water_depth, flume_width=flume_width, width=("rock_width", rock_width, "rock mass"))
     from ..blocks import cutting
     from ..validation import hoek_bray_regime
 
