@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from rockjax.blocks import BlockParams, ContactLaw, ContactPoint, PenaltyCoulomb, box, make_blocks
-from rockjax.blocks.laws import LawResult, SmoothPenaltyCoulomb, smooth_ramp, smoothstep
+from rockjax.blocks.laws import CLOSING_FLOOR, LawResult, SmoothPenaltyCoulomb, onset_factor, smooth_ramp, smoothstep
 
 KN, KS, ZETA, PHI, COH = 1e6, 4e5, 0.2, math.radians(30.0), 0.0
 M_RED = 50.0  # kg
@@ -32,8 +32,16 @@ def point(depth, velocity=(0.0, 0.0, 0.0), n_points=1.0):
                         reduced_mass=jnp.asarray(M_RED), pair_points=jnp.asarray(n_points))
 
 
-def law(p, history=(0.0, 0.0, 0.0), **kw):
-    return PenaltyCoulomb()(p, jnp.asarray(history, jnp.float64), params(**kw), DT)
+def law(p, history=(0.0, 0.0, 0.0), resolve_step=True, **kw):
+    return PenaltyCoulomb(resolve_step=resolve_step)(p, jnp.asarray(history, jnp.float64), params(**kw), DT)
+
+
+def resolved_closing(w, spring, n_points, cn):
+    """The closing speed [m/s] the resolved dashpot sees (``PenaltyCoulomb`` doc): the mid-step
+    speed w less half a step of the pair's deceleration by its springs, at least CLOSING_FLOOR w,
+    over 1 + zeta omega dt."""
+    decel = 0.5 * DT * n_points * spring / M_RED
+    return max(w - decel, CLOSING_FLOOR * w) / (1.0 + 0.5 * DT * n_points * cn / M_RED)
 
 
 def test_normal_spring_at_rest(x64):
@@ -43,15 +51,61 @@ def test_normal_spring_at_rest(x64):
     assert not np.any(np.asarray(r.tangential_force)) and not np.any(np.asarray(r.history))
 
 
+@pytest.mark.parametrize("resolve_step", [False, True], ids=["plain", "resolved"])
 @pytest.mark.parametrize("n_points", [1.0, 4.0])
-def test_damping_acts_only_while_closing(x64, n_points):
-    d, v = 2e-4, 0.05
+def test_damping_acts_only_while_closing(x64, n_points, resolve_step):
+    d, v = 2e-4, 0.05  # deeper than a step closes (v DT = 5 um): not the contact's first step
     cn = 2 * ZETA * math.sqrt(KN * M_RED / n_points)
-    closing = law(point(d, (0.0, 0.0, -v), n_points))  # j moves towards i
-    np.testing.assert_allclose(float(closing.normal_force), KN * d + cn * v, rtol=1e-14)
-    opening = law(point(d, (0.0, 0.0, 5.0), n_points))  # fast opening: the spring alone, never a pull
+    closing = law(point(d, (0.0, 0.0, -v), n_points), resolve_step=resolve_step)  # j moves towards i
+    w = resolved_closing(v, KN * d, n_points, cn) if resolve_step else v
+    np.testing.assert_allclose(float(closing.normal_force), KN * d + cn * w, rtol=1e-14)
+    if resolve_step:  # the springs' half-step deceleration, 0.4 % (n = 1) / 1.6 % (4) of v, and 1 + zeta omega dt
+        assert 0.97 * v < w < 0.995 * v
+    opening = law(point(d, (0.0, 0.0, 5.0), n_points), resolve_step=resolve_step)  # the spring alone, never a pull
     np.testing.assert_allclose(float(opening.normal_force), KN * d, rtol=1e-15)
     assert float(opening.normal_force) > 0
+
+
+@pytest.mark.parametrize("phase", [0.01, 0.3, 0.5, 0.8, 0.999])
+def test_first_step_carries_the_impulse_since_the_onset(x64, phase):
+    # a point closing at v that is delta = phase v DT deep began at t_n - delta / v; up to
+    # t_n + DT/2 the spring's impulse is k (delta + v DT/2)^2 / (2 v) and the dashpot's c v_c (delta / v + DT/2)
+    v = 0.5
+    d = phase * v * DT
+    cn = 2 * ZETA * math.sqrt(KN * M_RED)
+    r = law(point(d, (0.0, 0.0, -v)))
+    wc = resolved_closing(v, KN * d, 1.0, cn)
+    t_in = d / v + DT / 2
+    np.testing.assert_allclose(float(r.normal_force) * DT, KN * v * t_in**2 / 2 + cn * wc * t_in, rtol=1e-13)
+    plain = law(point(d, (0.0, 0.0, -v)), resolve_step=False)
+    np.testing.assert_allclose(float(plain.normal_force), KN * d + cn * v, rtol=1e-14)
+    # one step later the point is an old one: the plain spring and the centred dashpot
+    later = law(point(d + v * DT, (0.0, 0.0, -v)))
+    np.testing.assert_allclose(float(later.normal_force),
+                               KN * (d + v * DT) + cn * resolved_closing(v, KN * (d + v * DT), 1.0, cn), rtol=1e-14)
+
+
+def test_onset_factor_carries_the_missed_impulse_continuously(x64):
+    # f(s) + f(s + 1) = s + 3/2 for the onset at a phase s of the step before; C1; 0 at the onset, 1 from 2 steps
+    s = jnp.linspace(0.0, 1.0, 101)
+    np.testing.assert_allclose(np.asarray(onset_factor(s) + onset_factor(s + 1.0)), np.asarray(s) + 1.5, atol=1e-14)
+    np.testing.assert_allclose(np.asarray(onset_factor(jnp.asarray([-1.0, 0.0, 1.0, 2.0, 5.0]))),
+                               [0.0, 0.0, 1.5, 1.0, 1.0], atol=1e-15)
+    for x0 in (0.0, 1.0, 2.0):
+        g = [float(jax.grad(onset_factor)(jnp.asarray(x0 + e))) for e in (-1e-9, 1e-9)]
+        np.testing.assert_allclose(g[0], g[1], atol=1e-7)
+
+
+@pytest.mark.parametrize("smooth_law", [False, True], ids=["sharp", "smooth"])
+def test_resolved_law_gradients_are_finite(x64, smooth_law):
+    # at the switches of the resolved dashpot (onset, first step, floor, no closing) the gradients
+    # in the depth and the normal velocity are finite
+    f = (lambda p: SMOOTH(p, jnp.zeros(3), params(), DT)) if smooth_law else (lambda p: law(p))
+    v = 0.5
+    for d, vz in ((1e-12, -v), (v * DT, -v), (0.5 * v * DT, -v), (2e-4, 0.0), (2e-4, -1e-30), (2e-4, 3.0),
+                  (1e-3, -1e-4), (DS, -DS / DT), (1e-7, -1e-7)):
+        g = jax.grad(lambda dv: f(point(dv[0], (0.0, 0.0, dv[1]))).normal_force)(jnp.asarray([d, vz]))
+        assert np.all(np.isfinite(np.asarray(g))), (d, vz, g)
 
 
 def test_stick_below_the_cap(x64):
@@ -130,8 +184,20 @@ DS, VS, BAND = 1e-5, 1e-3, 0.05
 SMOOTH = SmoothPenaltyCoulomb(onset_depth=DS, closing_speed=VS, slip_band=BAND)
 
 
-def smooth(p, history=(0.0, 0.0, 0.0), **kw):
-    return SMOOTH(p, jnp.asarray(history, jnp.float64), params(**kw), DT)
+def smooth(p, history=(0.0, 0.0, 0.0), resolve_step=True, **kw):
+    lw = SMOOTH if resolve_step else dataclasses.replace(SMOOTH, resolve_step=False)
+    return lw(p, jnp.asarray(history, jnp.float64), params(**kw), DT)
+
+
+def corner(n_points=1.0, resolve_step=True):
+    """The smooth law's dashpot force [N] at v_n = 0 and depth >= d_s: its closing switch's
+    rounded corner, ``c_n VS / 4``; resolved, CLOSING_FLOOR of it over 1 + zeta omega dt (at the
+    depths used here, >= 45 um, the springs' half-step deceleration is beyond VS / 4, so the floor
+    holds exactly: the rounded floor's band ends at 0.15 of it)."""
+    cn = 2 * ZETA * math.sqrt(KN * M_RED / n_points)
+    if not resolve_step:
+        return cn * VS / 4
+    return cn * CLOSING_FLOOR * VS / 4 / (1.0 + 0.5 * DT * n_points * cn / M_RED)
 
 
 def test_smooth_ramp_and_smoothstep_closed_forms(x64):
@@ -149,18 +215,19 @@ def test_smooth_ramp_and_smoothstep_closed_forms(x64):
     assert float(jax.grad(lambda a: smooth_ramp(a, 0.0))(jnp.asarray(0.5))) == 1.0  # no NaN at width 0
 
 
+@pytest.mark.parametrize("resolve_step", [False, True], ids=["plain", "resolved"])
 @pytest.mark.parametrize("vz", [-0.05, 0.0, 5.0])
-def test_smooth_law_is_the_sharp_law_beyond_its_bands(x64, vz):
+def test_smooth_law_is_the_sharp_law_beyond_its_bands(x64, vz, resolve_step):
     # deep (depth >= d_s, shifted by d_s/2), closing or opening faster than VS (or at rest), and a
     # tangential state far below / far above the cap: equal to PenaltyCoulomb to round-off
     d = 2e-4
     for hist, vt in (((1e-5, 0.0, 0.0), 0.0), ((1e-3, 2e-4, 0.0), 0.02)):
         vel = (vt, 0.0, vz)
-        sharp = law(point(d, vel, 2.0), history=hist)
-        soft = smooth(point(d + 0.5 * DS, vel, 2.0), history=hist)
+        sharp = law(point(d, vel, 2.0), history=hist, resolve_step=resolve_step)
+        soft = smooth(point(d + 0.5 * DS, vel, 2.0), history=hist, resolve_step=resolve_step)
         if vz == 0.0:
             np.testing.assert_allclose(float(soft.normal_force), float(sharp.normal_force)
-                                       + 2 * ZETA * math.sqrt(KN * M_RED / 2) * VS / 4, rtol=1e-13)
+                                       + corner(2.0, resolve_step), rtol=1e-13)
             continue  # at v_n = 0 the dashpot's rounded corner adds c_n VS / 4 (the band's middle)
         np.testing.assert_allclose(float(soft.normal_force), float(sharp.normal_force), rtol=1e-13)
         np.testing.assert_allclose(np.asarray(soft.tangential_force), np.asarray(sharp.tangential_force),
@@ -182,8 +249,7 @@ def test_smooth_onset_starts_from_zero_force(x64):
     assert abs(dfn) < 1e-3 * KN  # the slope starts from 0 too (C1 onset)
     # beyond the onset band the spring is the sharp one, shifted by d_s / 2
     # (plus c_n VS / 4: at v_n = 0 the closing-only dashpot sits in its rounded corner)
-    np.testing.assert_allclose(float(smooth(point(5 * DS)).normal_force),
-                               KN * 4.5 * DS + 2 * ZETA * math.sqrt(KN * M_RED) * VS / 4, rtol=1e-14)
+    np.testing.assert_allclose(float(smooth(point(5 * DS)).normal_force), KN * 4.5 * DS + corner(), rtol=1e-14)
 
 
 def test_smooth_point_count(x64):
@@ -211,7 +277,7 @@ def test_smooth_stick_slip_is_continuous(x64):
     d, vt = 2e-4, 0.02
     dep = d + 0.5 * DS
     ct = 2 * ZETA * math.sqrt(KS * M_RED)
-    cap = (KN * d + 2 * ZETA * math.sqrt(KN * M_RED) * VS / 4) * math.tan(PHI)  # v_n = 0: the dashpot's corner
+    cap = (KN * d + corner()) * math.tan(PHI)  # v_n = 0: the dashpot's corner
     # the trial force a = k_s (u0 + vt dt) + ct vt, swept from 0.8 to 1.2 caps
     u0s = (np.linspace(0.8, 1.2, 401) * cap - ct * vt) / KS - vt * DT
     f_soft, h_soft, h_sharp = [], [], []
