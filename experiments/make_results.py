@@ -1319,8 +1319,57 @@ def sec_soak(doc: Doc):
                  "max E / E0", "max speed [m/s]", "load", "date"], rows))
 
 
+def sec_restitution_phase(doc: Doc):
+    doc.h("Contact restitution vs the impact's phase within a step (issue 46 item 4)")
+    recs = doc.records("restitution_phase.jsonl", "python experiments/restitution_phase.py "
+                       "--out experiments/results/restitution_phase.jsonl")
+    if recs is None:
+        return
+    doc.p("`experiments/restitution_phase.py`: a 0.1 m cube dropped flat on a floor (`scenes.block_on_incline` at "
+          "0 degrees, blocks only) from 16 heights 0.0500-0.0503 m whose impacts fall 1/16 of a step apart "
+          "(`eighths`: eighths of a step the measured phases cover), at `dt factor` x the builder's default step "
+          "(`blocks.stable_dt`, seed Eq 8 with safety 0.5). e = speed out / speed in against the closing-only "
+          "closed form exp(-zeta arccos(zeta) / sqrt(1 - zeta^2)) (0.756 at 0.2, 0.546 at 0.5); `err` its "
+          "relative error over the 16 phases. `law`: `plain` = `PenaltyCoulomb(resolve_step=False)` (the force "
+          "at the step's start), `resolved` = the default (centred dashpot, first step's impulse since the onset); "
+          "`smooth ...` the same for `SmoothPenaltyCoulomb()` (its onset band makes its own continuous-time "
+          "restitution here about -0.7 % / -1.6 %, measured at dt/8). Cost: the 16 drops are one vmapped batch; "
+          "block-steps/s and simulated s per wall s are the batch's (compile excluded, best of the reps; the "
+          "machine is shared: see `load`). A smaller step (option a) costs its factor in steps per simulated s; "
+          "the resolved law (option b) costs nothing measurable at the default step.")
+    drops = [r for r in recs if r.get("case") == "drops"]
+    rows = [[r["law"], round(r["dt_factor"], 4), r["zeta"], r["steps_in_contact_min"], r["steps_in_contact_max"],
+             r["e_min"], r["e_max"], 100 * r["err_min"], 100 * r["err_max"], r["within_2pct"], r["eighths_covered"],
+             r["dt"], r["block_steps_per_s"], r["sim_s_per_wall_s"], r.get("load_avg_1m"), r.get("date")] for r in drops]
+    doc.p(table(["law", "dt factor", "zeta", "steps in contact min", "max", "e min", "e max", "err min %", "err max %",
+                 "within 2 %", "eighths", "dt s", "block-steps/s", "sim s / wall s", "load", "date"], rows))
+    cost = [r for r in recs if r.get("case") in ("law_cost", "law_alone")]
+    if cost:
+        doc.p("The law's own cost, plain vs resolved at the same dt, alternated: `law_cost` = block-steps/s of "
+              "`bench_blocks`' 100-box pile at rest (~390 contact points); `law_alone` = one jitted law call on "
+              "4096 points (us per point). The pile's ratio swings with the shared machine's load from run to run; "
+              "the law alone is ~1.3x of a step's small law share.")
+        doc.p(table(["case", "plain", "resolved", "resolved / plain", "best of", "load", "date"],
+                    [[r["case"], r.get("block_steps_per_s_plain", r.get("us_per_point_plain")),
+                      r.get("block_steps_per_s_resolved", r.get("us_per_point_resolved")), r["ratio_resolved_over_plain"],
+                      r["best_of"], r.get("load_avg_1m"), r.get("date")] for r in cost]))
+    cpl = [r for r in recs if r.get("case") == "coupled"]
+    if cpl:
+        doc.p("Coupled scene `sliding_wedge`: the step the fluid needs (CFL) against the blocks' (Eq 8) at make_blocks' "
+              "default stiffness and at the stiffness the builder softens the rock to (so that the fluid sets dt and "
+              "the rock's contacts run at about their Eq 8 step, as blocks-only scenes do: a smaller block safety "
+              "factor would soften the rock by its square, or cut dt by it); full coupled step, plain vs resolved law.")
+        doc.p(table(["dx", "n_fluid", "dt s", "dt fluid s", "dt blocks (built k) s", "dt blocks (default k) s",
+                     "limited by", "k built N/m", "k default N/m", "ms/step plain", "ms/step resolved",
+                     "resolved / plain", "load", "date"],
+                    [[r["dx"], r["n_fluid"], r["dt"], r["dt_fluid"], r["dt_blocks_built"], r["dt_blocks_default_k"],
+                      r["limited_by"], r["normal_stiffness_built"], r["normal_stiffness_default"], r["ms_per_step_plain"],
+                      r["ms_per_step_resolved"], r["ratio_resolved_over_plain"], r.get("load_avg_1m"), r.get("date")]
+                     for r in cpl]))
+
+
 SECTIONS = [sec_sph, sec_driver, sec_checkpoint, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
-            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_redesign, sec_full_event, sec_waves, sec_stress, sec_soak, sec_rock_slope]
+            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_redesign, sec_full_event, sec_waves, sec_restitution_phase, sec_stress, sec_soak, sec_rock_slope]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:
