@@ -628,6 +628,12 @@ def stable_dt(config: BlockConfig, params: BlockParams, state: BlockState, *, sa
     covers several simultaneous neighbours.  The in-jit check in ``advance_blocks`` uses the
     same formula with safety 1 and sets ``Status.BLOCK_UNSTABLE`` beyond it.
 
+    At this step a box landing flat is in contact for only 15-20 steps (omega dt = 0.13-0.18 for
+    its corners' springs); the default contact law resolves its normal force over the step
+    (``laws.PenaltyCoulomb.resolve_step``), so that the restitution does not depend on where in
+    a step the impact falls (within 0.5 % of the closed form; with the plain force that needs
+    about 1/6 of this step).
+
     Returns:
       dt in s (``inf`` when there is no DYNAMIC block).
     """
