@@ -1345,20 +1345,24 @@ def sec_restitution_phase(doc: Doc):
                  "within 2 %", "eighths", "dt s", "block-steps/s", "sim s / wall s", "load", "date"], rows))
     cost = [r for r in recs if r.get("case") in ("law_cost", "law_alone")]
     if cost:
-        doc.p("The law's own cost, plain vs resolved at the same dt, alternated: `law_cost` = block-steps/s of "
-              "`bench_blocks`' 100-box pile at rest (~390 contact points); `law_alone` = one jitted law call on "
-              "4096 points (us per point). The pile's ratio swings with the shared machine's load from run to run; "
-              "the law alone is ~1.3x of a step's small law share.")
-        doc.p(table(["case", "plain", "resolved", "resolved / plain", "best of", "load", "date"],
+        doc.p("The law's own cost, plain vs resolved at the same dt: `law_cost` = block-steps/s of `bench_blocks`' "
+              "100-box pile at rest (~390 contact points), each law built twice, compiled, then timed alternately "
+              "(`noise`: the spread of the two builds of one law); `law_alone` = one jitted law call on 4096 points "
+              "(us per point): the law's arithmetic is ~1.3x, a share of a block step too small to see. The drops' "
+              "timings above ran one after the other (not alternated) while the machine's load moved.")
+        doc.p(table(["case", "plain", "resolved", "resolved / plain", "noise", "best of", "load", "date"],
                     [[r["case"], r.get("block_steps_per_s_plain", r.get("us_per_point_plain")),
                       r.get("block_steps_per_s_resolved", r.get("us_per_point_resolved")), r["ratio_resolved_over_plain"],
+                      (f"{r['ratio_plain_again_over_plain']:.3f} / {r['ratio_resolved_again_over_resolved']:.3f}"
+                       if "ratio_plain_again_over_plain" in r else "-"),
                       r["best_of"], r.get("load_avg_1m"), r.get("date")] for r in cost]))
     cpl = [r for r in recs if r.get("case") == "coupled"]
     if cpl:
         doc.p("Coupled scene `sliding_wedge`: the step the fluid needs (CFL) against the blocks' (Eq 8) at make_blocks' "
               "default stiffness and at the stiffness the builder softens the rock to (so that the fluid sets dt and "
               "the rock's contacts run at about their Eq 8 step, as blocks-only scenes do: a smaller block safety "
-              "factor would soften the rock by its square, or cut dt by it); full coupled step, plain vs resolved law.")
+              "factor would soften the rock by its square, or cut dt by it); full coupled step, plain vs resolved law "
+              "(best of the reps of an 8-step chunk, alternated).")
         doc.p(table(["dx", "n_fluid", "dt s", "dt fluid s", "dt blocks (built k) s", "dt blocks (default k) s",
                      "limited by", "k built N/m", "k default N/m", "ms/step plain", "ms/step resolved",
                      "resolved / plain", "load", "date"],
