@@ -52,7 +52,7 @@ LAWS = {"plain": PenaltyCoulomb(resolve_step=False), "resolved": PenaltyCoulomb(
         "smooth plain": SmoothPenaltyCoulomb(resolve_step=False), "smooth resolved": SmoothPenaltyCoulomb()}
 #: (law, dt factors) measured: the plain law down to the step that meets 2 %, the others at the default
 PLAN = (("plain", (1.0, 1 / 2, 1 / 3, 1 / 4, 1 / 6, 1 / 8)), ("resolved", (1.0, 1 / 2)),
-        ("smooth plain", (1.0,)), ("smooth resolved", (1.0,)))
+        ("smooth plain", (1.0,)), ("smooth resolved", (1.0, 1 / 8)))
 
 
 def closed_form(zeta):
@@ -256,13 +256,19 @@ def main():
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--only", nargs="*", default=["drops", "law_cost", "law_alone", "coupled"])
     ap.add_argument("--dx", type=float, default=0.04, help="sliding_wedge's spacing for the coupled case")
+    ap.add_argument("--laws", nargs="*", default=None, help="drops of these laws only (default: all of PLAN)")
+    ap.add_argument("--factors", nargs="*", type=float, default=None, help="drops at these dt factors only")
     a = ap.parse_args()
     common = dict(date=datetime.date.today().isoformat(), commit=_commit(), backend=jax.default_backend(),
                   jax=jax.__version__, host_cpus=os.cpu_count(),
                   cmd="experiments/restitution_phase.py " + " ".join(sys.argv[1:]))
     if "drops" in a.only:
         for name, factors in PLAN:
+            if a.laws is not None and name not in a.laws:
+                continue
             for f in factors:
+                if a.factors is not None and not any(abs(f - x) < 1e-3 for x in a.factors):
+                    continue
                 for zeta in ZETAS:
                     rec = drops(name, f, zeta, a.reps)
                     rec.update(common, load_avg_1m=round(os.getloadavg()[0], 2))
