@@ -292,7 +292,8 @@ def _segmented(fn, live, args, seg: int, fill=None):
     def skip(*_):
         out = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
         for key, value in (fill or {}).items():
-            out[key] = jnp.full(shapes[key].shape, value, shapes[key].dtype)
+            if key in out:
+                out[key] = jnp.full(shapes[key].shape, value, shapes[key].dtype)
         return out
 
     def body(_, x):
@@ -544,17 +545,22 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
             rows = jnp.arange(a.shape[0])[:, None]
             return jnp.zeros(active_all.shape + a.shape[2:], a.dtype).at[rows, slot].set(a, mode="drop")
 
-        out = dict(normal=n, gap=fcp["gap"], fcp_changes=fcp["changes"],
+        rmin = jnp.minimum(sh.radius[i], sh.radius[j])
+        out = dict(normal=n, gap=fcp["gap"],
                    support_overflow=fcp["support_overflow"] & mask, cross_overflow=fcp["cross_overflow"] & mask,
-                   points=pc.points, depth=depth_all, active=active_all, feature=pc.feature, n_points=n_points,
-                   edge_overflow=pc.edge_overflow & mask, normal_force=per_slot(fn), tangential_force=per_slot(ft),
-                   shear=shear, contact_feature=feature, Fj=Fj, Tj=Tj, Ti=Ti)
+                   n_points=n_points, edge_overflow=pc.edge_overflow & mask, shear=shear, contact_feature=feature,
+                   Fj=Fj, Tj=Tj, Ti=Ti, deep=jnp.any(depth_all > config.penetration_limit * rmin[:, None], 1))
+        if return_info:  # the per-slot arrays (~80 slots a pair): only for the diagnostics
+            out.update(fcp_changes=fcp["changes"], points=pc.points, depth=depth_all, active=active_all,
+                       feature=pc.feature, normal_force=per_slot(fn), tangential_force=per_slot(ft))
         if config.joint_water:
             w = _joint_water_loads(bodies, params, config, gvec, i, j, mask, n, fcp["gap"], pc.points, active_all)
             out["edge_overflow"] = out["edge_overflow"] | w.pop("near_overflow")
             for k in ("Fj", "Tj", "Ti"):
                 out[k] = out[k] + w.pop(k)
-            out.update(w)
+            out["joint_count"] = w.pop("joint_count")
+            if return_info:
+                out.update(w)
         return out
 
     i, j = pairs[:, 0], pairs[:, 1]
@@ -588,9 +594,9 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     else:
         keep = mask
         per = _segmented(pair_forces, mask, args, config.pair_segment, fill=fill)
-    n, depth, active = per["normal"], per["depth"], per["active"]
+    n = per["normal"]
     Fj, Tj, Ti = per["Fj"], per["Tj"], per["Ti"]
-    if 0 < config.law_slots < active.shape[1]:
+    if 0 < config.law_slots < config.contact_slots:
         over = jnp.any(per["n_points"] > config.law_slots)
         status = status | jnp.where(over, Status.CONTACT_POINT_OVERFLOW.value, 0).astype(jnp.int32)
     if config.crossing_slots < config.max_edges:
@@ -602,7 +608,7 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     if crosses:
         over = jnp.any(per["cross_overflow"])
         status = status | jnp.where(over, Status.FCP_CROSS_OVERFLOW.value, 0).astype(jnp.int32)
-    if config.joint_water and config.joint_patch_points < active.shape[1]:
+    if config.joint_water and config.joint_patch_points < config.contact_slots:
         over = jnp.any(per["joint_count"] > config.joint_patch_points)
         status = status | jnp.where(over, Status.JOINT_PATCH_OVERFLOW.value, 0).astype(jnp.int32)
     force = jnp.zeros((B, 3), f).at[j].add(Fj).at[i].add(-Fj)
@@ -610,11 +616,10 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
 
     hist = ContactHistory(pairs=pairs, pair_mask=mask, plane=jax.lax.stop_gradient(n), plane_valid=mask,
                           shear=per["shear"], contact_feature=per["contact_feature"])
-    rmin = jnp.minimum(sh.radius[i], sh.radius[j])
-    deep = jnp.any(depth > config.penetration_limit * rmin[:, None])
+    deep = jnp.any(per["deep"])
     status = status | jnp.where(deep, Status.BLOCK_PENETRATION.value, 0).astype(jnp.int32)
     if return_info:
-        info = dict(pairs=pairs, pair_mask=mask, evaluated=keep, n_contacts=jnp.sum(active.astype(jnp.int32)),
+        info = dict(pairs=pairs, pair_mask=mask, evaluated=keep, n_contacts=jnp.sum(per["active"].astype(jnp.int32)),
                     **{k: per[k] for k in ("normal", "gap", "fcp_changes", "points", "depth", "active", "feature",
                                            "normal_force", "tangential_force")})
         if config.joint_water:
