@@ -6,8 +6,10 @@ benchmark piles of ``bench_blocks.py`` (boxes or rocks), beside the whole step. 
 Stages (the order ``contact.contact_forces`` and ``integrate.advance_blocks`` run them):
 
 * ``pose``: world vertices, face planes, the vertex -> edge-direction table;
-* ``broad``: ``broadphase.candidate_pairs`` (AABBs, grid, compaction into the pair buffer);
-* ``remap``: the contact history carried to the new pair buffer (``contact._remap``);
+* ``broad``: whether the candidate-pair list is kept (``contact._kept_or_rebuilt``: the blocks'
+  boxes against those of the last build); a rebuild (``broadphase.candidate_pairs``: AABBs, grid,
+  compaction; ``contact._remap``: the history carried over) is timed alone (``rebuild_ms``) and
+  counted over ``--settle`` steps (``rebuilds_per_step``);
 * ``separated``: which pairs the stored plane still separates (``contact.separated_pairs``) and
   the gather of the evaluated pairs to the front;
 * ``fcp``, ``points``, ``law``: the Fast Common Plane, the contact points and the contact law
@@ -80,9 +82,21 @@ def profile(n, shape="box", reps=20, settle=20, pair_segment=None):
     for _ in range(n_settle):
         st, t0 = steps(st, t0)
 
+    @jax.jit
+    def count_rebuilds(s, t):  # the list rebuilds over ``settle`` more steps (its boxes renewed)
+        def body(c, _):
+            s, t, k = c
+            s2, _ = rb.advance_blocks(s, par, cfg, dt=dt, t=t, gravity=g)
+            k = k + jnp.any(s2.history.box_lo != s.history.box_lo).astype(jnp.int32)
+            return (s2, t + dt, k), None
+        return jax.lax.scan(body, (s, t, jnp.int32(0)), None, length=settle)[0]
+
+    st, t0, rebuilds = count_rebuilds(st, t0)
+    rebuilds, n_counted = int(rebuilds), settle
+
     step = jax.jit(lambda s, t: rb.advance_blocks(s, par, cfg, dt=dt, t=t, gravity=g))
     rec = dict(bench="blocks_profile", shape=shape, n_blocks=n, pair_capacity=cfg.pair_capacity,
-               pair_segment=cfg.pair_segment, dt=dt, reps=reps)
+               pair_segment=cfg.pair_segment, pair_segment_setting=pair_segment, dt=dt, reps=reps)
     times = {}
     times["step"], _ = _best(step, (st, t0), reps)
 
@@ -102,10 +116,16 @@ def profile(n, shape="box", reps=20, settle=20, pair_segment=None):
         return Xw, Nw, Dw, vdir
 
     times["pose"], (Xw, Nw, Dw, vdir) = _best(pose, (st,), reps)
+    # a list rebuild (the broad phase and the history's remap) is timed alone; a step runs one only
+    # when a block's box has moved by half the AABB margin (``contact._kept_or_rebuilt``), and the
+    # stage "broad" is that check on this state (a kept list: the rebuild skipped)
     broad = jax.jit(lambda X: candidate_pairs(cfg, X, sh.vertex_mask))
-    times["broad"], (pairs, mask, _) = _best(broad, (Xw,), reps)
+    times["rebuild_broad"], (pairs, mask, _) = _best(broad, (Xw,), reps)
     remap = jax.jit(lambda old, p, m: C._remap(old, p, m, cfg.n_blocks))
-    times["remap"], hist = _best(remap, (st.history, pairs, mask), reps)
+    times["rebuild_remap"], _ = _best(remap, (st.history, pairs, mask), reps)
+    kept = jax.jit(lambda old, X: C._kept_or_rebuilt(cfg, old, X, sh.vertex_mask))
+    times["broad"], (hist, _) = _best(kept, (st.history, Xw), reps)
+    mask = hist.pair_mask
 
     @jax.jit
     def separated(X, hist):
@@ -172,11 +192,13 @@ def profile(n, shape="box", reps=20, settle=20, pair_segment=None):
         return s.x.at[d].set(xd), s.v.at[d].set(vd), s.q.at[d].set(qd), s.omega.at[d].set(wd), ok
 
     times["integrate"], _ = _best(integrate, (st, force, torque), reps)
-    stages = ("pose", "broad", "remap", "separated", "fcp", "points", "law", "scatter", "integrate")
+    stages = ("pose", "broad", "separated", "fcp", "points", "law", "scatter", "integrate")
     total = sum(times[k] for k in stages)
     rec.update(candidate_pairs=int(jnp.sum(mask)), evaluated_pairs=K,
                contact_points=int(jnp.sum(pc.active & m_[:, None])),
                step_ms=1e3 * times["step"], stages_ms={k: round(1e3 * times[k], 4) for k in stages},
+               rebuild_ms={k: round(1e3 * times["rebuild_" + k], 4) for k in ("broad", "remap")},
+               rebuilds_per_step=rebuilds / n_counted,
                stages_sum_ms=1e3 * total, segments_overhead_ms=1e3 * (times["step"] - total),
                share_of_step={k: round(times[k] / times["step"], 4) for k in stages},
                block_steps_per_s=n / times["step"], us_per_evaluated_pair={
@@ -191,8 +213,8 @@ def main():
     ap.add_argument("--shape", choices=("box", "rock"), default="box")
     ap.add_argument("--reps", type=int, default=20)
     ap.add_argument("--settle", type=int, default=20)
-    ap.add_argument("--pair-segment", type=int, nargs="+", default=[None],
-                    help="BlockTuning.pair_segment values to profile (default: make_blocks' own)")
+    ap.add_argument("--pair-segment", type=lambda v: None if v == "auto" else int(v), nargs="+", default=[None],
+                    help="BlockTuning.pair_segment values to profile ('auto': make_blocks' default)")
     ap.add_argument("--out", default=None)
     a = ap.parse_args()
     stamp = dict(date=time.strftime("%Y-%m-%d"), cmd="experiments/profile_blocks.py " + " ".join(sys.argv[1:]))

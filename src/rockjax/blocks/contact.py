@@ -56,7 +56,7 @@ import jax
 import jax.numpy as jnp
 
 from ..types import Status
-from .broadphase import candidate_pairs, pairs_are_static
+from .broadphase import aabbs, candidate_pairs, pairs_are_static
 from .fcp import _first_k, fcp_pair, gap_along, sat_start, vertex_directions
 from .joint_water import joint_water_load
 from .laws import ContactLaw, ContactPoint, smoothstep
@@ -351,7 +351,35 @@ def _remap(old: ContactHistory, pairs, mask, B):
         plane_valid=found & old.plane_valid[src],
         shear=old.shear[src],
         contact_feature=jnp.where(found[:, None], old.contact_feature[src], -1),
+        box_lo=old.box_lo,
+        box_hi=old.box_hi,
     )
+
+
+def _kept_or_rebuilt(config: BlockConfig, old: ContactHistory, Xw, vmask):
+    """The candidate pairs of this step: the last step's list, or (``lax.cond``) a new one from
+    ``candidate_pairs`` with the history carried over (``_remap``) when some block's box (no
+    margin) has moved by more than half the AABB margin ``m`` (any face of it, m) since the
+    list was built.
+
+    Why it finds the same contacts: a pair whose boxes now overlap or lie within ``m`` of each
+    other had, at the build, boxes within ``m + 2 (m / 2) = 2 m``, the margin the build used (each
+    box grown by ``m``), so it is in the list; contact points (within ``inside_tolerance`` of a
+    block) and the joint water (within the aperture, which the margin covers) need no pair
+    farther apart. A kept pair that has moved apart is still evaluated or skipped
+    (``separated_pairs``) with zero load, as a farther candidate would be.
+
+    Returns ``(ContactHistory, status int32)``: the broad phase's overflow bits of a rebuild.
+    """
+    lo, hi = aabbs(Xw, vmask, 0.0)
+    drift = jnp.max(jnp.maximum(jnp.abs(lo - old.box_lo), jnp.abs(hi - old.box_hi)))
+    stale = ~(drift <= 0.5 * config.aabb_margin)  # also NaN / inf: the first step builds
+
+    def rebuild(old):
+        pairs, mask, status = candidate_pairs(config, Xw, vmask)
+        return _remap(old, pairs, mask, config.n_blocks).replace(box_lo=lo, box_hi=hi), status
+
+    return jax.lax.cond(stale, rebuild, lambda old: (old, jnp.int32(0)), old)
 
 
 class _Bodies(NamedTuple):
@@ -493,12 +521,13 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
                          "refit it with rockjax.blocks.fit_history(config, state)")
     Xw = world_vertices(state)
     Nw, Dw = world_planes(state)
-    pairs, mask, status = candidate_pairs(config, Xw, sh.vertex_mask)
     if pairs_are_static(config):
+        pairs, mask, status = candidate_pairs(config, Xw, sh.vertex_mask)
         hist = ContactHistory(pairs, mask, old.plane, old.plane_valid & mask, old.shear,
-                              jnp.where(mask[:, None], old.contact_feature, -1))
+                              jnp.where(mask[:, None], old.contact_feature, -1), old.box_lo, old.box_hi)
     else:
-        hist = _remap(old, pairs, mask, B)
+        hist, status = _kept_or_rebuilt(config, old, Xw, sh.vertex_mask)
+        pairs, mask = hist.pairs, hist.pair_mask
     dyn = jnp.asarray([m == Motion.DYNAMIC for m in config.motion])
     m = block_mass(state, params)
     if config.joint_water:
@@ -615,7 +644,8 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     torque = jnp.zeros((B, 3), f).at[j].add(Tj).at[i].add(Ti)
 
     hist = ContactHistory(pairs=pairs, pair_mask=mask, plane=jax.lax.stop_gradient(n), plane_valid=mask,
-                          shear=per["shear"], contact_feature=per["contact_feature"])
+                          shear=per["shear"], contact_feature=per["contact_feature"], box_lo=hist.box_lo,
+                          box_hi=hist.box_hi)
     deep = jnp.any(per["deep"])
     status = status | jnp.where(deep, Status.BLOCK_PENETRATION.value, 0).astype(jnp.int32)
     if return_info:

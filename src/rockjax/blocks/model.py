@@ -38,6 +38,7 @@ __all__ = [
     "BlockConfig",
     "BlockCapacities",
     "BlockTuning",
+    "auto_pair_segment",
     "BlockParams",
     "BlockShape",
     "BlockState",
@@ -172,8 +173,13 @@ class BlockTuning:
         phase compacts the candidate pairs at the front of the buffer, and with
         ``skip_separated`` the pairs to evaluate are gathered before the separated ones, so a
         half-empty buffer costs about half). 0, or >= the pair capacity: one pass over every slot.
-        16 by default: much faster than 64 on piles where few candidate pairs are evaluated
-        (10 rocks or boxes), the same on 100-block piles (RESULTS.md, "pair segments").
+        None (default): :func:`auto_pair_segment` of the pair capacity, the buffer in
+        ``PAIR_SEGMENTS`` (16) segments of at least 16 slots. Why: a live segment costs a fixed
+        ~0.1-0.2 ms on a CPU (the narrow phase's some hundred operations, each dispatched once
+        per segment) besides its pairs' arithmetic (~5 us a box pair), and a skipped one ~15 us;
+        a 1000-box pile (9001 slots, 1000 evaluated) took 20 ms a step in segments of 16 and
+        12.6 ms in segments of 1024 (``experiments/profile_blocks.py``), while a 10-rock pile
+        with one or two evaluated pairs wants segments of 16 (RESULTS.md, "pair segments").
       skip_separated: a pair whose stored common plane still separates it by more than the
         contact tolerances can reach across (``contact.separated_pairs``; for a 12-vertex rock
         ~1e-4 of its size, plus the joint aperture with joint water) is not evaluated that step: no
@@ -185,11 +191,12 @@ class BlockTuning:
       ValueError: naming ``BlockTuning.<field>`` for a bad value.
     """
 
-    pair_segment: int = 16
+    pair_segment: Optional[int] = None
     skip_separated: bool = True
 
     def __post_init__(self):
-        object.__setattr__(self, "pair_segment", _check_int("BlockTuning", "pair_segment", self.pair_segment, 0))
+        if self.pair_segment is not None:
+            object.__setattr__(self, "pair_segment", _check_int("BlockTuning", "pair_segment", self.pair_segment, 0))
         if not isinstance(self.skip_separated, (bool, np.bool_)):
             raise ValueError(f"BlockTuning.skip_separated must be True or False (got {self.skip_separated!r})")
         object.__setattr__(self, "skip_separated", bool(self.skip_separated))
@@ -355,8 +362,10 @@ class BlockConfig:
 
     @property
     def pair_segment(self) -> int:
-        """Pair slots per narrow-phase segment (``tuning.pair_segment``; 0: one pass)."""
-        return self.tuning.pair_segment
+        """Pair slots per narrow-phase segment (``tuning.pair_segment``, or
+        :func:`auto_pair_segment` of the pair capacity when that is None; 0: one pass)."""
+        seg = self.tuning.pair_segment
+        return auto_pair_segment(self.pair_capacity) if seg is None else seg
 
     @property
     def skip_separated(self) -> bool:
@@ -499,6 +508,9 @@ class ContactHistory:
         vertex of j inside i (its index v), a vertex of i inside j (V + v), the crossing of edge a
         of i with edge b of j (2 V + a nE + b), the fallback point (2 V + nE^2); the history slot
         of a feature carries over to the next step wherever that feature's point is gathered.
+      box_lo, box_hi: [B,3] m, each block's axis-aligned box (no margin) when the candidate
+        pairs were last built (``contact_forces``: the list is kept until a box has moved by more
+        than half the AABB margin; +inf / -inf before the first build).
     """
 
     pairs: jax.Array
@@ -507,6 +519,8 @@ class ContactHistory:
     plane_valid: jax.Array
     shear: jax.Array
     contact_feature: jax.Array
+    box_lo: jax.Array
+    box_hi: jax.Array
 
 
 @_pytree_dataclass
@@ -1082,8 +1096,25 @@ def block_capacities(geometry: BlockGeometry, *, broadphase: Broadphase = Broadp
                            fcp_crosses=int(fcp_crosses))
 
 
-def block_tuning(*, pair_segment: int = 16, skip_separated: bool = True) -> BlockTuning:
+#: ``auto_pair_segment``: the pair buffer's segments (each at least ``PAIR_SEGMENT_MIN`` slots)
+PAIR_SEGMENTS = 16
+PAIR_SEGMENT_MIN = 16
+
+
+def auto_pair_segment(pair_capacity: int) -> int:
+    """The default narrow-phase segment (``BlockTuning.pair_segment`` None) for a pair buffer of
+    ``pair_capacity`` slots: the buffer in ``PAIR_SEGMENTS`` segments, at least
+    ``PAIR_SEGMENT_MIN`` slots each, a multiple of it (16 for up to 256 slots, 64 for 801, 576
+    for 9001). The evaluated pairs are gathered to the front, so a step runs about
+    ``evaluated / segment + 1`` live segments of fixed cost and the rest are skipped."""
+    per = -(-int(pair_capacity) // PAIR_SEGMENTS)
+    return PAIR_SEGMENT_MIN * max(1, -(-per // PAIR_SEGMENT_MIN))
+
+
+def block_tuning(*, pair_segment: Optional[int] = None, skip_separated: bool = True) -> BlockTuning:
     """The :class:`BlockTuning` from ``make_blocks``' arguments of those names (same messages)."""
+    if pair_segment is None:
+        return BlockTuning(pair_segment=None, skip_separated=bool(skip_separated))
     if int(pair_segment) < 0:  # the message BlockConfig gave when this was its field
         raise ValueError(f"BlockConfig.pair_segment must be >= 0 (got {int(pair_segment)})")
     return BlockTuning(pair_segment=int(pair_segment), skip_separated=bool(skip_separated))
@@ -1188,7 +1219,7 @@ def make_blocks(
     joint_water_density: float = 1000.0,
     joint_aperture: float = 0.0,
     joint_patch_points: int = 32,
-    pair_segment: int = 16,
+    pair_segment: Optional[int] = None,
     law_slots: int = 32,
     crossing_edges: int = 8,
     support_edges: Optional[int] = None,
@@ -1307,6 +1338,8 @@ def _initial_state(config: BlockConfig, shape: BlockShape, pos, ori, vel, om) ->
             plane_valid=jnp.zeros(P, bool),
             shear=jnp.zeros((P, L, 3), f),
             contact_feature=jnp.full((P, L), -1, jnp.int32),
+            box_lo=jnp.full((config.n_blocks, 3), jnp.inf, f),
+            box_hi=jnp.full((config.n_blocks, 3), -jnp.inf, f),
         ),
     )
 
