@@ -85,12 +85,14 @@ def advance_blocks(state: BlockState, params: BlockParams, config: BlockConfig, 
         vd = v[d] + dt * (force[d] / m[:, None] + gravity)
         qd = q[d]
         R = quat_matrix(qd)
-        Ib = params.density[d, None, None] * state.shape.inertia_unit[d]
-        Iw = jnp.einsum("bij,bjk,blk->bil", R, Ib, R)
+        rho = params.density[d, None]
         wd = om[d]
-        L = jnp.einsum("bij,bj->bi", Iw, wd)
+        # in the body frame: L = R I_b R^T omega, and I_w^-1 = R I_b^-1 R^T (I_b^-1 built once)
+        wb = jnp.einsum("bji,bj->bi", R, wd)
+        L = jnp.einsum("bij,bj->bi", R, rho * jnp.einsum("bij,bj->bi", state.shape.inertia_unit[d], wb))
         rhs = torque[d] - jnp.cross(wd, L)
-        wd = wd + dt * jnp.linalg.solve(Iw, rhs[..., None])[..., 0]
+        rb_ = jnp.einsum("bji,bj->bi", R, rhs)
+        wd = wd + dt * jnp.einsum("bij,bj->bi", R, jnp.einsum("bij,bj->bi", state.shape.inertia_unit_inverse[d], rb_) / rho)
         xd = x[d] + dt * vd
         qd = quat_integrate(qd, wd, dt)
         x, v, q, om = x.at[d].set(xd), v.at[d].set(vd), q.at[d].set(qd), om.at[d].set(wd)
