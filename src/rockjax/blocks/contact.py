@@ -304,6 +304,18 @@ def _segmented(fn, live, args, seg: int, fill=None):
     return jax.tree_util.tree_map(lambda o: o.reshape((n_seg * seg,) + o.shape[2:])[:P], out)
 
 
+def _to_front(keep):
+    """``(rank [P], order [P])`` int32: the permutation that gathers the ``keep`` [P] rows to the
+    front, each part in its order (``a[order]``; row p goes to ``rank[p]``, so ``b[rank]`` undoes
+    it) -- a stable partition by two prefix sums, no sort."""
+    k = keep.astype(jnp.int32)
+    n = jnp.sum(k)
+    rank = jnp.where(keep, jnp.cumsum(k) - 1, n + jnp.cumsum(1 - k) - 1)
+    P = keep.shape[0]
+    order = jnp.zeros(P, jnp.int32).at[rank].set(jnp.arange(P, dtype=jnp.int32), unique_indices=True)
+    return rank, order
+
+
 def separated_pairs(Xw, vertex_mask, shape, pairs, plane, plane_valid, *, tol_rel: float, slack: float = 0.0):
     """Which pairs are certainly contact-free: their stored common plane still separates them by
     more than the contact tests' tolerances can reach across.
@@ -607,10 +619,17 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
         keep = mask & ~clear
         P = mask.shape[0]
         if 0 < config.pair_segment < P:
-            order = jnp.argsort(~keep, stable=True)
-            inv = jnp.zeros_like(order).at[order].set(jnp.arange(P, dtype=order.dtype))
-            per = _segmented(pair_forces, keep[order], tuple(a[order] for a in args), config.pair_segment, fill)
-            per = {k: v[inv] for k, v in per.items()}
+            rank, order = _to_front(keep)
+            if pairs_are_static(config):  # the static list keeps its order: the results go back
+                per = _segmented(pair_forces, keep[order], tuple(a[order] for a in args), config.pair_segment, fill)
+                per = {k: v[rank] for k, v in per.items()}
+            else:  # the list itself is reordered (any order serves; the next step reads it as it is)
+                hist = jax.tree_util.tree_map(lambda a: a[order], hist.replace(box_lo=None, box_hi=None)).replace(
+                    box_lo=hist.box_lo, box_hi=hist.box_hi)
+                pairs, mask, keep, warm_gap = hist.pairs, hist.pair_mask, keep[order], warm_gap[order]
+                i, j = pairs[:, 0], pairs[:, 1]
+                args = (i, j, mask, hist.plane, hist.plane_valid, hist.shear, hist.contact_feature)
+                per = _segmented(pair_forces, keep, args, config.pair_segment, fill)
         else:
             per = pair_forces(*args)
         alt = {"normal": hist.plane, "gap": warm_gap}
@@ -619,7 +638,8 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
             other = alt[k] if k in alt else jnp.full_like(v, fill.get(k, 0))
             return jnp.where(keep.reshape(keep.shape + (1,) * (v.ndim - 1)), v, other)
 
-        per = {k: kept(k, v) for k, v in per.items()}
+        # a pair not kept has no active point: its law slots are already empty (zeros, -1)
+        per = {k: v if k in ("shear", "contact_feature") else kept(k, v) for k, v in per.items()}
     else:
         keep = mask
         per = _segmented(pair_forces, mask, args, config.pair_segment, fill=fill)
