@@ -36,6 +36,7 @@ import numpy as np
 import rockjax.blocks as rb
 from jsonl_out import emit
 from rockjax.blocks import Broadphase, ConvexPolyhedron, Motion, box, make_blocks, slab
+from rockjax.blocks.fcp import vertex_directions
 from rockjax.types import Status
 
 
@@ -100,7 +101,11 @@ def per_edge(st):
     sh = st.shape
     nE = sh.edges.shape[1]
     ar = jnp.broadcast_to(jnp.arange(nE, dtype=jnp.int32), sh.edge_mask.shape)
-    return st.replace(shape=sh.replace(edge_direction=ar, direction_edge=ar, direction_mask=sh.edge_mask))
+    vdir = jax.vmap(lambda e, em: vertex_directions(e, em, sh.vertex_mask.shape[1]))(sh.edges, sh.edge_mask)
+    shape = sh.replace(edge_direction=ar, direction_edge=ar, direction_mask=sh.edge_mask)
+    if hasattr(sh, "vertex_direction"):  # (built once since 2026-11-29; ab_commits.py runs older code)
+        shape = shape.replace(vertex_direction=vdir)
+    return st.replace(shape=shape)
 
 
 #: ``--ab-narrow`` variants: (name, make_blocks keywords, FCP per edge)

@@ -5,7 +5,7 @@ benchmark piles of ``bench_blocks.py`` (boxes or rocks), beside the whole step. 
 
 Stages (the order ``contact.contact_forces`` and ``integrate.advance_blocks`` run them):
 
-* ``pose``: world vertices, face planes, the vertex -> edge-direction table;
+* ``pose``: world vertices and face planes;
 * ``broad``: whether the candidate-pair list is kept (``contact._kept_or_rebuilt``: the blocks'
   boxes against those of the last build); a rebuild (``broadphase.candidate_pairs``: AABBs, grid,
   compaction; ``contact._remap``: the history carried over) is timed alone (``rebuild_ms``) and
@@ -44,7 +44,7 @@ from jsonl_out import emit  # noqa: E402
 from rockjax.blocks import Broadphase, Motion, make_blocks  # noqa: E402
 from rockjax.blocks import contact as C  # noqa: E402
 from rockjax.blocks.broadphase import candidate_pairs  # noqa: E402
-from rockjax.blocks.fcp import sat_start, vertex_directions  # noqa: E402
+from rockjax.blocks.fcp import sat_start  # noqa: E402
 from rockjax.blocks.model import block_mass, world_planes, world_vertices  # noqa: E402
 
 
@@ -111,11 +111,10 @@ def profile(n, shape="box", reps=20, settle=20, pair_segment=None):
     def pose(s):
         Xw = world_vertices(s)
         Nw, Dw = world_planes(s)
-        vdir = jax.vmap(lambda e, em, gd: vertex_directions(e, em, sh.vertex_mask.shape[1], gd, n_dir))(
-            sh.edges, sh.edge_mask, sh.edge_direction)
-        return Xw, Nw, Dw, vdir
+        return Xw, Nw, Dw
 
-    times["pose"], (Xw, Nw, Dw, vdir) = _best(pose, (st,), reps)
+    times["pose"], (Xw, Nw, Dw) = _best(pose, (st,), reps)
+    vdir = sh.vertex_direction
     # a list rebuild (the broad phase and the history's remap) is timed alone; a step runs one only
     # when a block's box has moved by half the AABB margin (``contact._kept_or_rebuilt``), and the
     # stage "broad" is that check on this state (a kept list: the rebuild skipped)

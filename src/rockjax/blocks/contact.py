@@ -57,7 +57,7 @@ import jax.numpy as jnp
 
 from ..types import Status
 from .broadphase import aabbs, candidate_pairs, pairs_are_static
-from .fcp import _first_k, fcp_pair, gap_along, sat_start, vertex_directions
+from .fcp import _first_k, fcp_pair, gap_along, sat_start
 from .joint_water import joint_water_load
 from .laws import ContactLaw, ContactPoint, smoothstep
 from .model import (BlockConfig, BlockParams, BlockShape, BlockState, ContactHistory, Motion, block_mass,
@@ -554,10 +554,9 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     iterations = 0 if sat_start(n_dir) and not config.joint_water else config.fcp_iterations
     support_edges = config.support_edges if 0 < config.support_edges < n_dir else 0
     crosses = config.fcp_crosses if support_edges and 0 < config.fcp_crosses < support_edges ** 2 else 0
-    # which edge directions touch each vertex: shape only, built once per block (not per pair and round)
-    vdir = jax.vmap(lambda e, em, g: vertex_directions(e, em, sh.vertex_mask.shape[1], g, n_dir))(
-        sh.edges, sh.edge_mask, sh.edge_direction)  # [B, V, nD]
-    bodies = _Bodies(Xw, Nw, Dw, sh, state.x, state.v, state.omega, jnp.where(dyn, 1.0 / m, 0.0), vdir)
+    # which edge directions touch each vertex: shape only (BlockShape.vertex_direction, built once)
+    bodies = _Bodies(Xw, Nw, Dw, sh, state.x, state.v, state.omega, jnp.where(dyn, 1.0 / m, 0.0),
+                     sh.vertex_direction)
 
     def pair_forces(i, j, mask, plane, plane_valid, shear, feature_old):
         """Common plane, contact points and contact law of the pairs (i, j) [S] (a segment of the

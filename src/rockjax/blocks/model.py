@@ -173,13 +173,13 @@ class BlockTuning:
         phase compacts the candidate pairs at the front of the buffer, and with
         ``skip_separated`` the pairs to evaluate are gathered before the separated ones, so a
         half-empty buffer costs about half). 0, or >= the pair capacity: one pass over every slot.
-        None (default): :func:`auto_pair_segment` of the pair capacity, the buffer in
-        ``PAIR_SEGMENTS`` (16) segments of at least 16 slots. Why: a live segment costs a fixed
-        ~0.1-0.2 ms on a CPU (the narrow phase's some hundred operations, each dispatched once
-        per segment) besides its pairs' arithmetic (~5 us a box pair), and a skipped one ~15 us;
-        a 1000-box pile (9001 slots, 1000 evaluated) took 20 ms a step in segments of 16 and
-        12.6 ms in segments of 1024 (``experiments/profile_blocks.py``), while a 10-rock pile
-        with one or two evaluated pairs wants segments of 16 (RESULTS.md, "pair segments").
+        None (default): :func:`auto_pair_segment` of the pair capacity and the blocks' edge
+        directions: for boxes and prisms the buffer in 8 segments, for rocks 16 slots. Why: a
+        live segment has a fixed cost on a CPU (the narrow phase's some hundred operations,
+        dispatched once per segment, ~0.1-1 ms) besides its pairs' arithmetic (~5 us a box
+        pair, ~35 us a rock pair), a skipped one ~15 us: a 1000-box pile (9001 slots, 1000
+        evaluated) wants one segment of them all, a 100-rock pile (~30 evaluated) segments of
+        16 (RESULTS.md, "pair segments").
       skip_separated: a pair whose stored common plane still separates it by more than the
         contact tolerances can reach across (``contact.separated_pairs``; for a 12-vertex rock
         ~1e-4 of its size, plus the joint aperture with joint water) is not evaluated that step: no
@@ -220,6 +220,8 @@ class BlockConfig:
       n_blocks: B.
       max_vertices, max_faces, max_halfedges, max_edges: padded sizes V, F, E, nE.
       max_valence: K, the most edges at one vertex (padding of the vertex stars used by FCP).
+      max_directions: nD, the padded edge-direction count (``BlockShape.direction_edge``; 0:
+        unknown, taken as many).
       motion: per-block :class:`Motion`.
       capacities: :class:`BlockCapacities`, the buffers the driver grows on an overflow bit.
       fcp_iterations: fixed number of Fast Common Plane iterations per pair and step. Not run
@@ -280,6 +282,7 @@ class BlockConfig:
     joint_aperture: float = 0.0
     joint_fade_points: bool = False
     tuning: BlockTuning = BlockTuning()
+    max_directions: int = 0
     law: ContactLaw = PenaltyCoulomb()
 
     def __post_init__(self):
@@ -365,7 +368,10 @@ class BlockConfig:
         """Pair slots per narrow-phase segment (``tuning.pair_segment``, or
         :func:`auto_pair_segment` of the pair capacity when that is None; 0: one pass)."""
         seg = self.tuning.pair_segment
-        return auto_pair_segment(self.pair_capacity) if seg is None else seg
+        if seg is not None:
+            return seg
+        from .fcp import sat_start  # (fcp imports nothing of this module's)
+        return auto_pair_segment(self.pair_capacity, simple=0 < self.max_directions and sat_start(self.max_directions))
 
     @property
     def skip_separated(self) -> bool:
@@ -461,6 +467,8 @@ class BlockShape:
       edge_direction [B,nE] int32, the direction group of each edge; direction_edge [B,nD] int32, the
       representative edge of each direction; direction_mask [B,nD] (parallel edges share a
       direction: the FCP scores each direction once, ``geometry.ConvexPolyhedron.edge_directions``);
+      vertex_direction [B,V,nD] bool: which edge directions touch each vertex (the FCP's
+      support-set gathering, ``fcp.vertex_directions``; shape only, built once);
       he_vert, he_next, he_pair, he_face [B,E] int32; halfedge_mask [B,E];
       star_face [B,V,K] faces around each vertex; star_vertex [B,V,K] the other end of each edge
       leaving the vertex; star_mask [B,V,K] (from half-edge walks: seed section 4; kept for local
@@ -482,6 +490,7 @@ class BlockShape:
     edge_direction: jax.Array
     direction_edge: jax.Array
     direction_mask: jax.Array
+    vertex_direction: jax.Array
     he_vert: jax.Array
     he_next: jax.Array
     he_pair: jax.Array
@@ -1100,17 +1109,26 @@ def block_capacities(geometry: BlockGeometry, *, broadphase: Broadphase = Broadp
                            fcp_crosses=int(fcp_crosses))
 
 
-#: ``auto_pair_segment``: the pair buffer's segments (each at least ``PAIR_SEGMENT_MIN`` slots)
-PAIR_SEGMENTS = 16
+#: ``auto_pair_segment``: the pair buffer's segments for simple blocks, and the least segment
+PAIR_SEGMENTS = 8
 PAIR_SEGMENT_MIN = 16
 
 
-def auto_pair_segment(pair_capacity: int) -> int:
+def auto_pair_segment(pair_capacity: int, *, simple: bool) -> int:
     """The default narrow-phase segment (``BlockTuning.pair_segment`` None) for a pair buffer of
-    ``pair_capacity`` slots: the buffer in ``PAIR_SEGMENTS`` segments, at least
-    ``PAIR_SEGMENT_MIN`` slots each, a multiple of it (16 for up to 256 slots, 64 for 801, 576
-    for 9001). The evaluated pairs are gathered to the front, so a step runs about
-    ``evaluated / segment + 1`` live segments of fixed cost and the rest are skipped."""
+    ``pair_capacity`` slots.
+
+    ``simple`` blocks (few edge directions, ``fcp.sat_start``: boxes, prisms; a pair's narrow
+    phase ~5 us on a CPU): the buffer in ``PAIR_SEGMENTS`` (8) segments, a multiple of
+    ``PAIR_SEGMENT_MIN`` (16) slots (1136 for 9001 slots, 128 for 901, 16 for up to 128): a pile
+    whose every block rests on another evaluates ~1 pair per block, one live segment. Others
+    (rocks: ~35 us a pair, its FCP iterating): ``PAIR_SEGMENT_MIN``, so few evaluated pairs cost
+    little more than themselves. The evaluated pairs are gathered to the front; a step runs about
+    ``evaluated / segment + 1`` live segments and skips the rest. Measured with the pair list
+    kept (``experiments/bench_blocks.py --ab-segments``): 1000 boxes 1.7x faster in segments of
+    1152 than of 288; 100 rocks 2x slower in segments of 64 than of 16."""
+    if not simple:
+        return PAIR_SEGMENT_MIN
     per = -(-int(pair_capacity) // PAIR_SEGMENTS)
     return PAIR_SEGMENT_MIN * max(1, -(-per // PAIR_SEGMENT_MIN))
 
@@ -1146,6 +1164,7 @@ def _block_shape(geometry: BlockGeometry) -> BlockShape:
         edge_direction=idx(packed.edge_direction),
         direction_edge=idx(packed.direction_edge),
         direction_mask=jnp.asarray(packed.direction_mask),
+        vertex_direction=jnp.asarray(_vertex_directions(packed)),
         he_vert=idx(packed.he_vert),
         he_next=idx(packed.he_next),
         he_pair=idx(packed.he_pair),
@@ -1160,6 +1179,19 @@ def _block_shape(geometry: BlockGeometry) -> BlockShape:
         inertia_unit_min=jnp.asarray(np.linalg.eigvalsh(np.asarray(packed.inertia_unit_density, np.float64))[:, 0], f),
         radius=jnp.asarray(packed.bounding_radius, f),
     )
+
+
+def _vertex_directions(packed) -> np.ndarray:
+    """[B,V,nD] bool: vertex v of block b is an end of a (valid) edge of direction d (the table
+    ``fcp.vertex_directions`` builds per block)."""
+    B, V, D = packed.vertices.shape[0], packed.max_vertices, packed.max_directions
+    out = np.zeros((B, V, D), bool)
+    em = np.asarray(packed.edge_mask, bool)
+    b, e = np.nonzero(em)
+    d = np.asarray(packed.edge_direction)[b, e]
+    for end in (0, 1):
+        out[b, np.asarray(packed.edges)[b, e, end], d] = True
+    return out
 
 
 def _max_valence(polyhedra) -> int:
@@ -1179,6 +1211,7 @@ def block_config(geometry: BlockGeometry, contact: dict, capacities: BlockCapaci
         max_halfedges=packed.max_halfedges,
         max_edges=packed.max_edges,
         max_valence=_max_valence(geometry.polyhedra),
+        max_directions=packed.max_directions,
         motion=geometry.motion,
         capacities=capacities,
         prescribed_direction=tuple(tuple(float(c) for c in r) for r in geometry.prescribed_direction),
