@@ -408,6 +408,27 @@ def sec_blocks(doc: Doc):
                       mj.get(n, {}).get("block_steps_per_s"), mj.get(n, {}).get("mean_contacts"),
                       mj.get(n, {}).get("ratio_rockjax_over_mujoco") or mj.get(n, {}).get("skipped"),
                       runs(ours[n]), ours[n].get("date")] for n in sorted(ours)]))
+    prof = doc.records("profile_blocks.jsonl", "python experiments/profile_blocks.py --sizes 100 1000 --out "
+                       "experiments/results/profile_blocks.jsonl (and --shape rock --sizes 100)")
+    if prof:
+        doc.p("Where a block step's time goes (`experiments/profile_blocks.py`, issue 46): each stage of "
+              "`advance_blocks` jitted and timed alone on the pile's state (best of the calls), beside the whole step "
+              "jitted alone (one step a call: slower than a step inside a scan, as the table above times them). "
+              "`broad`: the check that keeps the candidate-pair list (a rebuild, timed alone in `rebuild ms`, runs "
+              "when a block's box has moved by half the AABB margin: `rebuilds/step` over 20 steps); `fcp`, "
+              "`points`, `law`: over the evaluated pairs in one pass; `rest`: the step less the stages (the "
+              "segmented narrow phase's own cost, the gathers, what fusion saves).")
+        stages = ("pose", "broad", "separated", "fcp", "points", "law", "scatter", "integrate")
+        doc.p(table(["pile", "blocks", "candidate pairs", "evaluated", "segment", "step ms"] + [f"{k} ms" for k in stages]
+                    + ["rest ms", "rebuild ms", "rebuilds/step", "us per evaluated pair (fcp / points / law)", "date"],
+                    [[r.get("shape"), r["n_blocks"], r.get("candidate_pairs"), r.get("evaluated_pairs"),
+                      r.get("pair_segment"), r.get("step_ms")] + [r["stages_ms"].get(k) for k in stages]
+                     + [r.get("segments_overhead_ms"),
+                        " + ".join(fmt(v) for v in (r.get("rebuild_ms") or {}).values()) or "-",
+                        r.get("rebuilds_per_step"),
+                        " / ".join(fmt(v) for v in r.get("us_per_evaluated_pair", {}).values()), r.get("date")]
+                     for r in prof]))
+
     def ab_records(name, cmd, bench):
         return [r for r in doc.records(name, cmd) or [] if r.get("bench") == bench]
 

@@ -998,24 +998,32 @@ def _paths(paths, motion) -> list:
 def initial_overlaps(polyhedra: Sequence[ConvexPolyhedron], positions, orientations=None, motion=None) -> list:
     """``[(i, j, depth)]``: the pairs of placed blocks (at least one DYNAMIC; ``motion`` None: all
     are) that overlap, with how deep (m, ``geometry.overlap_depth``), deepest first. Host numpy;
-    the bounding spheres skip the pairs that cannot touch."""
+    only the pairs whose axis-aligned boxes overlap are tested (found by a sweep along x: a
+    10,000-block pile in seconds, not the B^2 / 2 pair loop)."""
     from .geometry import overlap_depth, quat_to_matrix
 
     B = len(polyhedra)
     pos = np.asarray(positions, float).reshape(B, 3)
     ori = np.tile([1.0, 0, 0, 0], (B, 1)) if orientations is None else np.asarray(orientations, float)
-    dyn = [True] * B if motion is None else [m == Motion.DYNAMIC for m in motion]
-    radius = np.array([p.bounding_radius for p in polyhedra])
+    dyn = np.ones(B, bool) if motion is None else np.array([m == Motion.DYNAMIC for m in motion])
     R = [quat_to_matrix(q) for q in ori]
+    world = [np.asarray(p.vertices, float) @ R[k].T + pos[k] for k, p in enumerate(polyhedra)]
+    tol = 1e-9 * max(1.0, float(np.abs(pos).max(initial=0.0)))
+    lo = np.array([w.min(0) for w in world]) - tol
+    hi = np.array([w.max(0) for w in world]) + tol
+    order = np.argsort(lo[:, 0], kind="stable")
+    end = np.searchsorted(lo[order, 0], hi[order, 0], side="right")  # sorted a meets b in (a, end[a])
+    count = np.maximum(end - np.arange(B) - 1, 0)
+    a = np.repeat(np.arange(B), count)
+    b = a + 1 + np.arange(a.size) - np.repeat(np.cumsum(count) - count, count)
+    i, j = np.minimum(order[a], order[b]), np.maximum(order[a], order[b])
+    ok = np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), 1) & (dyn[i] | dyn[j])
     out = []
-    for i in range(B):
-        for j in range(i + 1, B):
-            if not (dyn[i] or dyn[j]) or np.linalg.norm(pos[i] - pos[j]) >= radius[i] + radius[j]:
-                continue
-            depth = overlap_depth(polyhedra[i], pos[i], R[i], polyhedra[j], pos[j], R[j])
-            if depth > 0:
-                out.append((i, j, depth))
-    return sorted(out, key=lambda t: -t[2])
+    for i, j in zip(i[ok].tolist(), j[ok].tolist()):
+        depth = overlap_depth(polyhedra[i], pos[i], R[i], polyhedra[j], pos[j], R[j])
+        if depth > 0:
+            out.append((i, j, depth))
+    return sorted(out, key=lambda t: (-t[2], t[0], t[1]))
 
 
 #: the deepest start overlap ``make_blocks`` accepts, as a fraction of the smaller block's size
