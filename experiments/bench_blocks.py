@@ -208,7 +208,8 @@ def run_mujoco(n, steps, dt, shape="box"):
             sx, sy, sz = np.ptp(polys[k + 1].vertices, axis=0)
             geom = f'<geom type="box" size="{sx/2} {sy/2} {sz/2}" density="2650"/>'
         geoms.append(f'<body pos="{x} {y} {z}"><freejoint/>{geom}</body>')
-    xml = (f'<mujoco><option timestep="{dt}"/><asset>{"".join(meshes)}</asset><worldbody>'
+    size = '<size memory="2G"/>' if n > 2000 else ""  # (the default arena overflows at 10k bodies)
+    xml = (f'<mujoco><option timestep="{dt}"/>{size}<asset>{"".join(meshes)}</asset><worldbody>'
            '<geom type="plane" size="50 50 0.1"/>' + "".join(geoms) + "</worldbody></mujoco>")
     model = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(model)

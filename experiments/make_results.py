@@ -408,6 +408,20 @@ def sec_blocks(doc: Doc):
                       mj.get(n, {}).get("block_steps_per_s"), mj.get(n, {}).get("mean_contacts"),
                       mj.get(n, {}).get("ratio_rockjax_over_mujoco") or mj.get(n, {}).get("skipped"),
                       runs(ours[n]), ours[n].get("date")] for n in sorted(ours)]))
+    scal = [r for r in doc.records("bench_blocks_scaling.jsonl", "python experiments/bench_blocks.py --sizes 1000 "
+                                   "10000 --no-fcp --no-mujoco --best-of 2 --out ...") or []
+            if r.get("bench") == "blocks_pile"]
+    if scal:
+        base = next((r for r in scal if r["n_blocks"] == min(x["n_blocks"] for x in scal)), None)
+        doc.p("Per-block cost from 1000 to 10,000 boxes (the same pile, grown: ~9 candidate pairs and ~1 evaluated "
+              "pair per box), both timed in one process (each twice, the best kept), so under the same load: "
+              "`per-block cost vs 1000` = block-steps/s at 1000 / block-steps/s here (issue 46's target: <= 1.5).")
+        doc.p(table(["blocks", "pair slots", "segment", "candidate pairs", "contact points", "block-steps/s",
+                     "per-block cost vs 1000", "status", "load", "date"],
+                    [[r["n_blocks"], r.get("pair_capacity"), r.get("pair_segment"), r.get("mean_pairs"),
+                      r.get("mean_contact_points"), r.get("block_steps_per_s"),
+                      base["block_steps_per_s"] / r["block_steps_per_s"], r.get("status"),
+                      r.get("load_avg_1m_at_save"), r.get("date")] for r in scal]))
     prof = doc.records("profile_blocks.jsonl", "python experiments/profile_blocks.py --sizes 100 1000 --out "
                        "experiments/results/profile_blocks.jsonl (and --shape rock --sizes 100)")
     if prof:
