@@ -287,3 +287,4 @@ def test_initial_overlaps_sweep_matches_every_pair():
             if d > 0:
                 ref.append((i, j, d))
     assert 10 < len(ref) and sorted(got) == sorted(ref)
+    assert rb.initial_overlaps([], []) == [] and rb.initial_overlaps(polys[:1], pos[:1]) == []

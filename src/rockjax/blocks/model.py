@@ -1003,6 +1003,8 @@ def initial_overlaps(polyhedra: Sequence[ConvexPolyhedron], positions, orientati
     from .geometry import overlap_depth, quat_to_matrix
 
     B = len(polyhedra)
+    if B < 2:
+        return []
     pos = np.asarray(positions, float).reshape(B, 3)
     ori = np.tile([1.0, 0, 0, 0], (B, 1)) if orientations is None else np.asarray(orientations, float)
     dyn = np.ones(B, bool) if motion is None else np.array([m == Motion.DYNAMIC for m in motion])
