@@ -546,14 +546,31 @@ def sec_blocks(doc: Doc):
                      "--shape box ... 64 32 16)", "blocks_pair_segment_ab")
     if zab:
         doc.p("The segment size (`BlockConfig.pair_segment`) with the separated-pair skip: the evaluated pairs are "
-              "gathered to the front, so a pile with few of them runs one short segment; 16 is the default since "
-              "2026-11-27 (was 64). Best of the alternated runs in one process (s for 200 steps).")
+              "gathered to the front, so a pile with few of them runs one short segment; 16 was the default from "
+              "2026-11-27 (before: 64); since 2026-11-29 `auto_pair_segment` picks it from the blocks (rocks 16, "
+              "boxes the buffer in 8 segments: measured with the kept pair list, 1000 boxes 1.7x faster in segments of "
+              "1136 than of 288, 100 rocks slower in segments of 64 than of 16: the next table). "
+              "Best of the alternated runs in one process (s for 200 steps).")
         sizes = sorted({int(k) for r in zab for k in r["best_wall_s"]}, reverse=True)
         doc.p(table(["pile", "blocks", "pair slots", "candidate pairs"] + [f"segment {k} s" for k in sizes]
                     + ["16 vs 64", "date"],
                     [[r.get("shape"), r["n_blocks"], r["pair_capacity"], r["mean_pairs"]]
                      + [r["best_wall_s"].get(str(k)) for k in sizes]
                      + [r["speedup_over_first"].get("16"), r.get("date")] for r in zab]))
+    aab = ab_records("bench_blocks_auto_segment.jsonl",
+                     "python experiments/bench_blocks.py --sizes 1000 --steps 100 --ab-segments 1136 576 288 --out ... "
+                     "(and --shape rock --sizes 100 --ab-segments 16 32 64)", "blocks_pair_segment_ab")
+    if aab:
+        doc.p("The segment size with the candidate-pair list kept from step to step (since 2026-11-29): the first "
+              "size of each row is `auto_pair_segment`'s choice for that pile (boxes: the buffer in 8 segments; "
+              "rocks: 16 slots); `auto vs slowest`: the slowest size's wall over the choice's. Best of the "
+              "alternated runs in one process.")
+        doc.p(table(["pile", "blocks", "pair slots", "evaluated-pair candidates", "walls s by segment",
+                     "auto vs slowest", "date"],
+                    [[r.get("shape"), r["n_blocks"], r["pair_capacity"], r["mean_pairs"],
+                      ", ".join(f"{k}: {fmt(v)}" for k, v in r["best_wall_s"].items()),
+                      max(r["best_wall_s"].values()) / next(iter(r["best_wall_s"].values())), r.get("date")]
+                     for r in aab]))
     xab = ab_records("bench_blocks_fcp_crosses.jsonl",
                      "python experiments/bench_blocks.py --shape rock --sizes 10 100 --ab-fcp-crosses 0 192 128 --out "
                      "experiments/results/bench_blocks_fcp_crosses.jsonl", "blocks_fcp_crosses_ab")

@@ -1134,9 +1134,9 @@ def auto_pair_segment(pair_capacity: int, *, simple: bool) -> int:
     whose every block rests on another evaluates ~1 pair per block, one live segment. Others
     (rocks: ~35 us a pair, its FCP iterating): ``PAIR_SEGMENT_MIN``, so few evaluated pairs cost
     little more than themselves. The evaluated pairs are gathered to the front; a step runs about
-    ``evaluated / segment + 1`` live segments and skips the rest. Measured with the pair list
-    kept (``experiments/bench_blocks.py --ab-segments``): 1000 boxes 1.7x faster in segments of
-    1152 than of 288; 100 rocks 2x slower in segments of 64 than of 16."""
+    ``evaluated / segment + 1`` live segments and skips the rest. The sizes against each other on
+    box and rock piles: ``experiments/bench_blocks.py --ab-segments`` (RESULTS.md, "Blocks vs
+    MuJoCo")."""
     if not simple:
         return PAIR_SEGMENT_MIN
     per = -(-int(pair_capacity) // PAIR_SEGMENTS)
