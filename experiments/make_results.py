@@ -548,8 +548,7 @@ def sec_blocks(doc: Doc):
         doc.p("The segment size (`BlockConfig.pair_segment`) with the separated-pair skip: the evaluated pairs are "
               "gathered to the front, so a pile with few of them runs one short segment; 16 was the default from "
               "2026-11-27 (before: 64); since 2026-11-29 `auto_pair_segment` picks it from the blocks (rocks 16, "
-              "boxes the buffer in 8 segments: measured with the kept pair list, 1000 boxes 1.7x faster in segments of "
-              "1136 than of 288, 100 rocks slower in segments of 64 than of 16: the next table). "
+              "boxes the buffer in 8 segments; measured with the kept pair list in the next table). "
               "Best of the alternated runs in one process (s for 200 steps).")
         sizes = sorted({int(k) for r in zab for k in r["best_wall_s"]}, reverse=True)
         doc.p(table(["pile", "blocks", "pair slots", "candidate pairs"] + [f"segment {k} s" for k in sizes]
@@ -565,7 +564,7 @@ def sec_blocks(doc: Doc):
               "size of each row is `auto_pair_segment`'s choice for that pile (boxes: the buffer in 8 segments; "
               "rocks: 16 slots); `auto vs slowest`: the slowest size's wall over the choice's. Best of the "
               "alternated runs in one process.")
-        doc.p(table(["pile", "blocks", "pair slots", "evaluated-pair candidates", "walls s by segment",
+        doc.p(table(["pile", "blocks", "pair slots", "candidate pairs", "walls s by segment",
                      "auto vs slowest", "date"],
                     [[r.get("shape"), r["n_blocks"], r["pair_capacity"], r["mean_pairs"],
                       ", ".join(f"{k}: {fmt(v)}" for k, v in r["best_wall_s"].items()),
