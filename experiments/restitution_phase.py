@@ -42,21 +42,16 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from jsonl_out import emit  # noqa: E402
 
 from rockjax.blocks import PenaltyCoulomb, SmoothPenaltyCoulomb, advance_blocks  # noqa: E402
-from rockjax.scenes import block_on_incline  # noqa: E402
 
-G = 9.81
-A = 0.1
-H0, N_DROPS = 0.05, 16
-ZETAS = (0.2, 0.5)
+# the drops, their release heights and the bounce's measure: the test's own (one definition)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "blocks"))
+from test_restitution_phase import G, ZETAS, bounce, closed_form, cube_scene, heights, rollout  # noqa: E402
+
 LAWS = {"plain": PenaltyCoulomb(resolve_step=False), "resolved": PenaltyCoulomb(),
         "smooth plain": SmoothPenaltyCoulomb(resolve_step=False), "smooth resolved": SmoothPenaltyCoulomb()}
 #: (law, dt factors) measured: the plain law down to the step that meets 2 %, the others at the default
 PLAN = (("plain", (1.0, 1 / 2, 1 / 3, 1 / 4, 1 / 6, 1 / 8)), ("resolved", (1.0, 1 / 2)),
         ("smooth plain", (1.0,)), ("smooth resolved", (1.0, 1 / 8)))
-
-
-def closed_form(zeta):
-    return math.exp(-zeta * math.acos(zeta) / math.sqrt(1.0 - zeta * zeta))
 
 
 def _commit():
@@ -67,39 +62,8 @@ def _commit():
         return None
 
 
-def _rollout(config, n_steps):
-    def one(state, params, dt):
-        g = jnp.asarray([0.0, 0.0, -G], state.x.dtype)
-
-        def body(carry, _):
-            s, t = carry
-            s, _ = advance_blocks(s, params, config, dt=dt, t=t, gravity=g)
-            return (s, t + dt), (s.x[0, 2], s.v[0, 2])
-
-        _, (z, v) = jax.lax.scan(body, (state, jnp.zeros((), state.x.dtype)), None, length=n_steps)
-        return z, v
-
-    return jax.jit(jax.vmap(one, in_axes=(0, None, None)))
-
-
-def bounce(z0, z, v, dt, z_contact):
-    """(e, phase, steps in contact) of one drop (see tests/blocks/test_restitution_phase.py)."""
-    before = np.concatenate([[z0], z[:-1]])
-    touching = before < z_contact
-    first = int(np.argmax(touching))
-    last = first + int(np.argmin(touching[first:])) - 1
-    v_in = -v[first - 1]
-    return v[last] / v_in, (before[first - 1] - z_contact) / (v_in * dt), last - first + 1
-
-
-def heights(dt):
-    """Release heights [m] from H0 whose impacts fall 1/16 of a step apart."""
-    return H0 + np.arange(N_DROPS) * math.sqrt(2 * G * H0) * dt * (2 + 1 / N_DROPS)
-
-
 def drops(law_name, factor, zeta, reps):
-    sc = block_on_incline(angle_deg=0.0, block_size=(A, A, A),
-                          block_kwargs=dict(damping_ratio=zeta, law=LAWS[law_name]))
+    sc = cube_scene(zeta, LAWS[law_name])
     st = sc.state.blocks
     z_rest = float(st.x[0, 2])
     dt = sc.config.dt * factor
@@ -107,7 +71,7 @@ def drops(law_name, factor, zeta, reps):
     states = jax.tree_util.tree_map(lambda a: jnp.stack([a] * len(hs)), st)
     states = states.replace(x=states.x.at[:, 0, 2].add(jnp.asarray(hs, st.x.dtype)))
     n = int(math.ceil((math.sqrt(2 * hs.max() / G) + 1e-3) / dt))
-    run = _rollout(sc.config.blocks, n)
+    run = rollout(sc.config.blocks, n)
     args = (states, sc.params.blocks, jnp.asarray(dt, st.x.dtype))
     t0 = time.perf_counter()
     z, v = jax.block_until_ready(run(*args))
