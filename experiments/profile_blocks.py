@@ -113,7 +113,6 @@ def profile(n, shape="box", reps=20, settle=20, pair_segment=None):
         return Xw, Nw, Dw
 
     times["pose"], (Xw, Nw, Dw) = _best(pose, (st,), reps)
-    vdir = sh.vertex_direction
     # a list rebuild (the broad phase and the history's remap) is timed alone; a step runs one only
     # when a block's box has moved by half the AABB margin (``contact._kept_or_rebuilt``), and the
     # stage "broad" is that check on this state (a kept list: the rebuild skipped)
@@ -139,7 +138,7 @@ def profile(n, shape="box", reps=20, settle=20, pair_segment=None):
     K = int(jnp.sum(keep))
     args = tuple(a[:K] for a in args)
     i, j, m_, plane, pvalid, shear, feat_old = args
-    bodies = C._Bodies(Xw, Nw, Dw, sh, st.x, st.v, st.omega, jnp.where(dyn, 1.0 / block_mass(st, par), 0.0), vdir)
+    bodies = C._Bodies(Xw, Nw, Dw, sh, st.x, st.v, st.omega, jnp.where(dyn, 1.0 / block_mass(st, par), 0.0))
 
     fcp = jax.jit(lambda b, i, j, p, v: C._common_planes(b, i, j, p, v, iterations=iterations,
                                                           support_edges=support_edges, crosses=crosses))

@@ -405,7 +405,6 @@ class _Bodies(NamedTuple):
     v: jax.Array  #: [B,3] m/s
     omega: jax.Array  #: [B,3] rad/s
     inv_m: jax.Array  #: [B] 1/kg (0 for FIXED / PRESCRIBED blocks)
-    vdir: jax.Array  #: [B,V,nD] bool, the edge directions touching each vertex (``fcp.vertex_directions``)
 
 
 def _common_planes(b: _Bodies, i, j, plane, plane_valid, *, iterations: int, support_edges: int, crosses: int):
@@ -416,8 +415,8 @@ def _common_planes(b: _Bodies, i, j, plane, plane_valid, *, iterations: int, sup
         b.X[i], sh.vertex_mask[i], b.N[i], sh.face_mask[i], sh.edges[i], sh.edge_mask[i],
         b.X[j], sh.vertex_mask[j], b.N[j], sh.face_mask[j], sh.edges[j], sh.edge_mask[j],
         b.x[i], b.x[j], plane, plane_valid,
-        (sh.edge_direction[i], sh.direction_edge[i], sh.direction_mask[i], b.vdir[i]),
-        (sh.edge_direction[j], sh.direction_edge[j], sh.direction_mask[j], b.vdir[j]),
+        (sh.edge_direction[i], sh.direction_edge[i], sh.direction_mask[i], sh.vertex_direction[i]),
+        (sh.edge_direction[j], sh.direction_edge[j], sh.direction_mask[j], sh.vertex_direction[j]),
     )
 
 
@@ -554,9 +553,7 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     iterations = 0 if sat_start(n_dir) and not config.joint_water else config.fcp_iterations
     support_edges = config.support_edges if 0 < config.support_edges < n_dir else 0
     crosses = config.fcp_crosses if support_edges and 0 < config.fcp_crosses < support_edges ** 2 else 0
-    # which edge directions touch each vertex: shape only (BlockShape.vertex_direction, built once)
-    bodies = _Bodies(Xw, Nw, Dw, sh, state.x, state.v, state.omega, jnp.where(dyn, 1.0 / m, 0.0),
-                     sh.vertex_direction)
+    bodies = _Bodies(Xw, Nw, Dw, sh, state.x, state.v, state.omega, jnp.where(dyn, 1.0 / m, 0.0))
 
     def pair_forces(i, j, mask, plane, plane_valid, shear, feature_old):
         """Common plane, contact points and contact law of the pairs (i, j) [S] (a segment of the
