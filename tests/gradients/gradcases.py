@@ -164,3 +164,21 @@ def wedge_observe(scene):
 def wedge_functional(config, observe, n_steps: int = WEDGE_STEPS):
     """``vg(params, state, target, w_lin, w_quad)`` of ``trajectory_loss`` for the wedge, jitted."""
     return jax.jit(jax.value_and_grad(trajectory_loss(config, n_steps, observe), has_aux=True))
+
+
+# --------------------------------------------------------------------------------------------
+# a whole event observed along the way (test_full_event, test_rock_slope_runup_grad)
+# --------------------------------------------------------------------------------------------
+
+def event_rollout(scene, config, n_steps: int, observe, n_obs: int) -> dict:
+    """A scene's event under ``config`` for ``n_steps``, observed by ``observe`` (``n_obs``
+    observables per list block): ``f(params, w) -> (loss, (obs, status))`` of ``trajectory_loss``
+    with the weights ``w`` [n_blocks, n_obs] on the observables' values (target 0), its jitted
+    ``vg = value_and_grad(loss)``, ``nb`` list blocks, and the run at ``scene.params`` (``obs``
+    [nb, n_obs] numpy, ``status`` int)."""
+    L = trajectory_loss(config, n_steps, observe)
+    f = jax.jit(lambda p, w: L(p, scene.state, jnp.zeros_like(w), w, jnp.zeros_like(w)))
+    vg = jax.jit(jax.value_and_grad(lambda p, w: f(p, w)[0]))
+    nb = n_steps // config.rebuild_every
+    (_, (obs, status)) = f(scene.params, jnp.zeros((nb, n_obs)))
+    return dict(scene=scene, f=f, vg=vg, nb=nb, obs=np.asarray(obs), status=int(status))

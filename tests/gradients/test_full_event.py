@@ -17,14 +17,13 @@ from __future__ import annotations
 
 import math
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import gradcases as gc
 from rockjax import Status
-from rockjax.calibrate import smooth_config, trajectory_loss
+from rockjax.calibrate import smooth_config
 from rockjax.gradcheck import gradcheck
 from rockjax.observables import gauge_elevation, runup_kwargs, smooth_runup
 
@@ -54,12 +53,7 @@ def observer(scene, config):
 def event(x64):
     scene = gc.tiny_wedge("penalty")
     config = smooth_config(scene.config)
-    L = trajectory_loss(config, N_STEPS, observer(scene, config))
-    f = jax.jit(lambda p, w: L(p, scene.state, jnp.zeros_like(w), w, jnp.zeros_like(w)))
-    vg = jax.jit(jax.value_and_grad(lambda p, w: f(p, w)[0]))
-    nb = N_STEPS // config.rebuild_every
-    (_, (obs, status)) = f(scene.params, jnp.zeros((nb, 3)))
-    return dict(scene=scene, f=f, vg=vg, nb=nb, obs=np.asarray(obs), status=int(status))
+    return gc.event_rollout(scene, config, N_STEPS, observer(scene, config), 3)
 
 
 def test_the_event_happens(event):

@@ -32,13 +32,13 @@ from __future__ import annotations
 
 import math
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import gradcases as gc
 from rockjax import Status, scenes
-from rockjax.calibrate import smooth_config, trajectory_loss
+from rockjax.calibrate import smooth_config
 from rockjax.gradcheck import gradcheck
 from rockjax.observables import runup_kwargs, smooth_runup
 
@@ -75,12 +75,7 @@ def event(x64):
     scene = tiny_rock_slope()
     assert scene.state.blocks.x.shape[0] - 2 == 2
     config = smooth_config(scene.config)
-    L = trajectory_loss(config, N_STEPS, observer(scene))
-    f = jax.jit(lambda p, w: L(p, scene.state, jnp.zeros_like(w), w, jnp.zeros_like(w)))
-    vg = jax.jit(jax.value_and_grad(lambda p, w: f(p, w)[0]))
-    nb = N_STEPS // config.rebuild_every
-    (_, (obs, status)) = f(scene.params, jnp.zeros((nb, 2)))
-    return dict(scene=scene, f=f, vg=vg, nb=nb, obs=np.asarray(obs), status=int(status))
+    return gc.event_rollout(scene, config, N_STEPS, observer(scene), 2)
 
 
 def test_the_event_happens(event):
