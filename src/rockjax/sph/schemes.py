@@ -49,6 +49,10 @@ class FluidScheme(Term):
 
     family = "scheme"
     continuity: ClassVar[bool] = False
+    #: The step's pair sums all use the positions at its start (DFSPH), not the drifted ones
+    #: (WCSPH's kick-drift-kick): the list must be valid there only (``rollout.needs_rebuild``,
+    #: ``step.check``), however far a particle then moves in the step.
+    sums_at_start: ClassVar[bool] = False
 
     @property
     def uses_nu(self) -> bool:
@@ -178,22 +182,25 @@ class WCSPH(FluidScheme):
 @dataclasses.dataclass(frozen=True)
 class DFSPH(FluidScheme):
     """Divergence-free SPH (``sph.dfsph``; Bender & Koschier 2015, 2017): summed densities, a
-    divergence solve and a density solve of Jacobi sweeps per step, walls and block particles as
-    volumes with the pressure mirrored (Akinci et al. 2012), a viscous term, symplectic Euler.
+    divergence solve and a density solve per step (projected Jacobi on the pressure), walls and
+    block particles as volumes (Akinci et al. 2012), a viscous term, symplectic Euler.
 
-    ``tolerance``: the density solve's mean error ``rho/rho0 - 1`` at which it stops (0.1 %);
-    ``divergence_tolerance``: the divergence solve's mean ``dt max(D, 0)``; ``min_iterations`` /
+    ``tolerance``: the density solve's mean residual ``|rho/rho0 - 1|`` at which it stops (0.1 %);
+    ``divergence_tolerance``: the divergence solve's mean ``dt |D|``; ``min_iterations`` /
     ``max_iterations``: the sweeps of each solve (a solve still above its tolerance at the cap sets
     ``Status.SOLVER_NOT_CONVERGED``); ``iterations``: None runs each solve until it converges (a
     ``while_loop``: forward only), an int runs exactly that many sweeps, masked once converged
-    (differentiable); ``divergence_solve``: run the divergence solve; ``min_neighbours``: particles
+    (differentiable); ``divergence_solve``: run the divergence solve; ``min_neighbours``: rows
     with fewer neighbours get no divergence correction (free surface); ``warm_start``: the share of
-    the previous step's pressures each solve starts from; ``mach``: ``Params.fluid.c0`` is read as
-    the speed scale of the scene over ``mach`` (the scenes set ``c0 = 10 v_max``), so the time step
-    is the velocity CFL ``cfl h / (mach c0)``, 1/``mach`` times WCSPH's acoustic one.
+    the previous step's pressures each solve starts from; ``relaxation``: the Jacobi step, below
+    2 / lambda_max of the solves' operator (0.4: lambda_max 4.2 for Wendland C2 at h = 1.3 dx);
+    ``mach``: ``Params.fluid.c0`` is read as the scene's speed scale over ``mach`` (the scenes set
+    ``c0 = 10 v_max``), so the time step is the velocity CFL ``cfl h / (mach c0)``, 1/``mach``
+    times WCSPH's acoustic one.
     """
 
     name = "dfsph"
+    sums_at_start = True
     kernel: Kernel = WendlandC2()
     viscosity: Viscosity = Laminar()
     tolerance: float = 1e-3
@@ -203,9 +210,9 @@ class DFSPH(FluidScheme):
     iterations: int | None = None
     divergence_solve: bool = True
     min_neighbours: int = 20
-    warm_start: float = 0.5
+    warm_start: float = 1.0
+    relaxation: float = 0.4
     mach: float = 0.1
-    relaxation: float = 1.0
 
     def __post_init__(self):
         _check_type("DFSPH", "kernel", self.kernel, Kernel)
@@ -223,6 +230,9 @@ class DFSPH(FluidScheme):
                              f"(a fixed, differentiable sweep count); got {self.iterations!r}")
         if not (0.0 <= self.warm_start <= 1.0):
             raise ValueError(f"DFSPH: warm_start must be in [0, 1] (got {self.warm_start!r})")
+        if not (0.0 < self.relaxation < 1.0):
+            raise ValueError(f"DFSPH: relaxation must be in (0, 1) (got {self.relaxation!r}); the Jacobi sweeps "
+                             "diverge above 2 / lambda_max of the solves' operator (0.48 for Wendland C2 at h = 1.3 dx)")
 
     @property
     def uses_nu(self) -> bool:
@@ -242,9 +252,9 @@ class DFSPH(FluidScheme):
         return min(limits)
 
     def unstable_dt(self, dt: float, params, vmax):
-        """True where the fastest particle moves more than ``0.5 h`` in a step (or the viscous limit)."""
+        """True where the fastest particle moves more than ``h`` in a step (or the viscous limit)."""
         f = params.fluid
-        unstable = dt * vmax > 0.5 * f.h
+        unstable = dt * vmax > f.h
         if self.uses_nu:
             unstable |= dt * f.nu > 0.25 * f.h**2
         return unstable
