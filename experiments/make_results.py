@@ -1423,7 +1423,41 @@ def sec_restitution_phase(doc: Doc):
                      for r in cpl]))
 
 
-SECTIONS = [sec_sph, sec_driver, sec_checkpoint, sec_skin, sec_time_vs_error, sec_peers, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
+def sec_dfsph(doc: Doc):
+    doc.h("DFSPH: the incompressible scheme against the peer's")
+    recs = doc.records("compare_peers_dfsph.jsonl", "python experiments/compare_peers.py --sizes 5k 20k --schemes dfsph "
+                       "wcsph --out experiments/results/compare_peers_dfsph.jsonl")
+    if recs is not None:
+        ours = {(r["size"], r["scheme"]): r for r in recs if r.get("code") == "rockjax" and "error" not in r}
+        ratios = [r for r in recs if r.get("kind") == "ratio" and r.get("peer_scheme") == "dfsph"]
+        doc.p("3D dam break of `compare_peers.py` (the peers' geometry and particle counts), rockjax `DFSPH()` "
+              "(dt = 0.25 h / (c0 / 10), the velocity CFL; SPlisHSPlasH DFSPH: 0.4 dx / sqrt(2 g H)) and `WCSPH()` "
+              "timed in the same run; the DFSPH window is the peer's (1 s / 0.33 s at 5k / 20k) capped at 0.8 s "
+              "(later the splash leaves rockjax's closed 3.5 m domain). Peer figures are the recorded ones.")
+        rows = [[r["size"], r["scheme"], r.get("steps"), r.get("dt"), r.get("wall_s"), r.get("particle_steps_per_s"),
+                 r.get("sim_s_per_wall_s"), r.get("foreign_cpu")] for r in ours.values()]
+        doc.p(table(["size", "scheme", "steps", "dt [s]", "wall s", "fluid p-steps/s", "sim-s / wall-s",
+                     "foreign cpu"], rows))
+        rows = [[r["size"], r["rockjax_scheme"], r["particle_steps_ratio"], r["sim_time_ratio"]] for r in ratios]
+        doc.p("Ratios rockjax / SPlisHSPlasH DFSPH (issue 49 target: sim-time ratio >= 1.0 for DFSPH):\n\n"
+              + table(["size", "rockjax scheme", "particle-steps/s ratio", "sim-time ratio"], rows))
+    rest = doc.records("dfsph_rest.jsonl", "python experiments/dfsph_rest.py --peer-python PEER_VENV/bin/python "
+                       "--out experiments/results/dfsph_rest.jsonl")
+    if rest is not None:
+        doc.p("Water at rest (`dfsph_rest.py`: 0.2 m deep in a 0.2 x 0.2 m tank, dx = 0.02 m, 1000 particles, started "
+              "on the lattice): rms particle speed [m/s] at the times given, rockjax with the laminar viscosity nu, "
+              "SPlisHSPlasH 2.19 DFSPH with its Standard viscosity = nu; for rockjax also the pressure at depths "
+              "> 0.05 m over rho0 g d (mean and sd over the steps of the last half second) and the mean sweeps "
+              "per step (density, divergence).")
+        times = sorted({t for r in rest for t in r.get("v_rms", {})}, key=float)
+        rows = [[r.get("code"), r.get("scheme"), r.get("nu"), r.get("dt")] + [r.get("v_rms", {}).get(t) for t in times]
+                + [r.get("p_ratio_mean_last_half"), r.get("p_ratio_sd_last_half"), r.get("sweeps_density_divergence"),
+                   r.get("date")] for r in rest if "error" not in r]
+        doc.p(table(["code", "scheme", "nu m^2/s", "dt s"] + [f"v rms {t} s" for t in times]
+                    + ["p / rho g d", "sd", "sweeps", "date"], rows))
+
+
+SECTIONS = [sec_sph, sec_driver, sec_checkpoint, sec_skin, sec_time_vs_error, sec_peers, sec_dfsph, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
             sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_redesign, sec_full_event, sec_waves, sec_restitution_phase, sec_stress, sec_soak, sec_rock_slope]
 
 

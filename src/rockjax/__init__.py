@@ -3,7 +3,7 @@
 The public API, re-exported explicitly:
 
 * the three pytrees: ``Config`` (static), ``Params`` (calibratable), ``State`` (dynamic), plus
-  the fluid schemes (``WCSPH``, ``SeedScheme``; their terms in ``rockjax.sph``), the remaining
+  the fluid schemes (``WCSPH``, ``DFSPH``, ``SeedScheme``; their terms in ``rockjax.sph``), the remaining
   enums and ``Status`` bits;
 * ``make_step(config) -> step(state, params)``; ``prime``; ``make_rollout`` / ``rollout``;
 * ``simulate(scene, t_end=...)`` (the host driver; checkpoint and resume), ``SimulationError``, ``Interrupted``;
@@ -21,7 +21,7 @@ from .driver import Interrupted, Result, SimulationError, simulate
 from .rollout import make_rollout, rollout
 from .scenes import Scene
 from .sph.absorbers import Sponge
-from .sph.schemes import WCSPH, SeedScheme
+from .sph.schemes import DFSPH, WCSPH, SeedScheme
 from .step import make_step, prime
 from .tuning import Tuning
 from .types import (
@@ -33,7 +33,7 @@ __all__ = [
     "__version__",
     "Config", "Capacities", "Params", "FluidParams", "State", "Particles", "NeighbourList", "GridSpec",
     "CouplingParams", "CouplingState",
-    "WCSPH", "SeedScheme", "Sponge", "Tuning", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
+    "WCSPH", "DFSPH", "SeedScheme", "Sponge", "Tuning", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
     "make_step", "prime", "make_rollout", "rollout",
     "simulate", "Result", "SimulationError", "Interrupted",
     "Scene", "scenes", "observables", "io", "sph", "blocks", "coupling", "calibrate", "ensembles", "gradcheck",

@@ -677,6 +677,9 @@ def _advice(bits: int) -> str:
         tips.append("A particle left the domain: enlarge the domain (tank height/length) or check the inflow.")
     if bits & Status.UNSTABLE_DT:
         tips.append("The time step exceeds the CFL/viscous limit for the current speeds: reduce Config.dt or raise c0.")
+    if bits & Status.SOLVER_NOT_CONVERGED:
+        tips.append("The pressure solve did not reach its tolerance within DFSPH(max_iterations=...): raise "
+                    "max_iterations, loosen DFSPH(tolerance=...) or reduce Config.dt.")
     if bits & Status.BLOCK_UNSTABLE:
         tips.append("The time step exceeds the block stability limit (seed Eq 8) for these Params (stiffer "
                     "contacts or lighter blocks): reduce Config.dt or the penalty stiffness.")

@@ -61,13 +61,17 @@ __all__ = ["make_rollout", "rollout", "n_blocks_for", "default_chunk", "needs_re
 def needs_rebuild(state: State, config: Config) -> jax.Array:
     """Whether the next step would move a particle more than ``skin / 2`` from the list's build
     positions (bool scalar; no gradient). Predicts ``x + dt (v + dt/2 a)`` for every particle
+    (``x`` itself for a scheme whose sums use the step's start, ``FluidScheme.sums_at_start``)
     (the fluid's drift exactly; walls at rest do not move; block-carried particles approximately,
     which ``step.check`` still guards with ``Status.NEIGHBOUR_STALE``)."""
     if not config.has_particles or state.nbrs is None:
         return jnp.zeros((), bool)
     P = jax.lax.stop_gradient(state.particles)
     dt = config.dt
-    disp = P.x + dt * (P.v + (0.5 * dt) * P.a) - state.nbrs.x_ref
+    if config.scheme.sums_at_start:  # its sums use these positions: the list must hold for them
+        disp = P.x - state.nbrs.x_ref
+    else:
+        disp = P.x + dt * (P.v + (0.5 * dt) * P.a) - state.nbrs.x_ref
     g = config.grid
     if any(g.periodic):
         L = jnp.asarray(g.lengths, disp.dtype)

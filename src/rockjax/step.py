@@ -72,7 +72,10 @@ def check(state: State, params: Params, config: Config) -> jax.Array:
     out = ((P.x < lo) | (P.x >= hi)) & ~jnp.asarray(g.periodic)
     status |= jnp.where(jnp.any(out.any(-1) & active), Status.OUT_OF_DOMAIN, 0)
 
-    disp = P.x - state.nbrs.x_ref
+    x_used = P.x
+    if config.scheme.sums_at_start and config.n_fluid:  # the step's sums used the fluid at x - dt v
+        x_used = jnp.where((P.kind == Kind.FLUID)[:, None], P.x - config.dt * P.v, P.x)
+    disp = x_used - state.nbrs.x_ref
     if any(g.periodic):
         L = jnp.asarray(g.lengths, P.x.dtype)
         disp = jnp.where(jnp.asarray(g.periodic), disp - L * jnp.round(disp / L), disp)
@@ -86,6 +89,7 @@ def check(state: State, params: Params, config: Config) -> jax.Array:
     vmax = jnp.sqrt(jnp.max(jnp.where(fluid, jnp.sum(P.v * P.v, -1), 0.0)))
     unstable = config.scheme.unstable_dt(config.dt, params, vmax)
     status |= jnp.where(unstable, Status.UNSTABLE_DT, 0)
+    status |= config.scheme.solver_status(P)
     return status.astype(jnp.int32)
 
 

@@ -91,6 +91,7 @@ class Status(enum.IntFlag):
     CROSSING_EDGE_OVERFLOW = 16384  #: a block of a pair has more edges inside the other than ``BlockConfig.crossing_edges``
     SUPPORT_EDGE_OVERFLOW = 32768  #: an FCP support set touches more edge directions than ``BlockConfig.support_edges``
     FCP_CROSS_OVERFLOW = 65536  #: an FCP round had more edge crosses than ``BlockConfig.fcp_crosses``
+    SOLVER_NOT_CONVERGED = 131072  #: an implicit pressure solve (``DFSPH``) ended above its tolerance at its iteration cap
 
     @classmethod
     def growable(cls) -> "Status":
@@ -508,6 +509,9 @@ class Particles:
     x_body: [N, 3] m, the particle's position in its block's body frame (None likewise).
     grad_rho: [N, 3] kg/m^4, renormalised density gradient at the last momentum pass (fluid rows;
         zero on walls), for ``sph.diffusion.Antuono``; None otherwise (``wcsph.prime`` fills it).
+    solver: [N, 6] the implicit scheme's per-particle solve record (``sph.dfsph.SOLVER_COLUMNS``:
+        the pressures that warm-start the next step, the last errors, the sweep counts); None for
+        the explicit schemes (``dfsph.prime`` fills it).
     """
 
     x: jax.Array
@@ -522,6 +526,7 @@ class Particles:
     body: Optional[jax.Array] = None
     x_body: Optional[jax.Array] = None
     grad_rho: Optional[jax.Array] = None
+    solver: Optional[jax.Array] = None
 
 
 @_pytree_dataclass

@@ -101,12 +101,13 @@ def central_fd(f, params, path, rel_step, *, get_leaf, set_leaf, abs_step=1e-4):
 DAM_STEPS = 96  # 12 list rebuilds x 8 steps, x dt ~1.04e-3 s -> 0.1 s
 
 
-def tiny_dam_break():
-    """A 0.3 x 0.3 x 0.5 m water column at dx = 0.1 m (45 fluid particles) in a 0.8 x 0.3 m tank."""
+def tiny_dam_break(**kwargs):
+    """A 0.3 x 0.3 x 0.5 m water column at dx = 0.1 m (45 fluid particles) in a 0.8 x 0.3 m tank
+    (``kwargs``: more options of ``scenes.dam_break``, e.g. ``scheme``)."""
     from rockjax import scenes
 
     return scenes.dam_break(dx=0.1, column_length=0.3, column_width=0.3, column_height=0.5, tank_length=0.8,
-                            tank_width=0.3)
+                            tank_width=0.3, **kwargs)
 
 
 @functools.lru_cache(maxsize=None)

@@ -202,6 +202,9 @@ CASES = [
      r"scene\.options\.dx`: dx = 0\.0001 m is too fine.*lattice points, ~[0-9.e+]+ GiB"),
     ("file-too-many-particles", lambda t: load(TANK.replace("dx = 0.05", "dx = 0.00002")),
      r"key `sph\.dx`: dx = 2e-05 m is too fine.*GiB"),
+    ("dfsph-relaxation-above-1", lambda t: rj.DFSPH(relaxation=1.0), r"DFSPH: relaxation must be in \(0, 1\)"),
+    ("dfsph-iterations-zero", lambda t: rj.DFSPH(iterations=0), r"DFSPH: iterations must be None"),
+    ("dfsph-tolerance-negative", lambda t: rj.DFSPH(tolerance=-1e-3), r"DFSPH: tolerance must be a positive"),
     # ---- time ----------------------------------------------------------------------------------
     ("t-end-nan", lambda t: rj.simulate(_incline(), t_end=math.nan), r"t_end must be a positive finite"),
     ("t-end-inf", lambda t: rj.simulate(_incline(), t_end=math.inf), r"t_end must be a positive finite"),

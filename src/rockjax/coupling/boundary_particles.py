@@ -151,12 +151,14 @@ def from_accelerations(P: Particles, acc_bodies, bodies: tuple[int, ...], blocks
 def from_pair_forces(P: Particles, pair_forces, bodies: tuple[int, ...], blocks) -> CouplingState:
     """Loads on the blocks ``bodies`` from ``pair_forces = (row [M], col [M], (fx, fy, fz) [M] N)``,
     the force on fluid particle ``row`` from block particle ``col`` (``wcsph.advance(...,
-    bodies=...)``; zero for the pairs that do not count): ``F_b = -sum f``,
+    bodies=...)``; zero for the pairs that do not count), optionally fourth the positions [N, 3]
+    the rows had when it acted (``dfsph.advance``; default ``P.x``): ``F_b = -sum f``,
     ``T_b = -sum (x_row - X_b) x f`` over the pairs whose ``col`` is carried by block b (masked
     sums per block, component by component)."""
-    row, col, f = pair_forces
+    row, col, f = pair_forces[:3]
+    x_rows = pair_forces[3] if len(pair_forces) > 3 else P.x  # where the forces acted, if not P.x
     body = take(P.body, col)
-    x = [take(P.x[:, a], row) for a in range(3)]
+    x = [take(x_rows[:, a], row) for a in range(3)]
     n_blocks = blocks.x.shape[0]
     force = jnp.zeros((n_blocks, 3), P.x.dtype)
     torque = jnp.zeros((n_blocks, 3), P.x.dtype)

@@ -26,10 +26,10 @@ import numpy as np
 from .diffusion import DensityDiffusion, Fourtakas
 from .kernels import Kernel, SeedGradientKernel, SpikyGradient, WendlandC2
 from .terms import Term, by_name, names
-from .viscosity import Artificial, Viscosity
+from .viscosity import Artificial, Laminar, Viscosity
 from .walls import Adami, WallModel
 
-__all__ = ["FluidScheme", "WCSPH", "SeedScheme", "from_names"]
+__all__ = ["FluidScheme", "WCSPH", "DFSPH", "SeedScheme", "from_names"]
 
 
 def _check_type(owner: str, field: str, value, cls):
@@ -49,6 +49,10 @@ class FluidScheme(Term):
 
     family = "scheme"
     continuity: ClassVar[bool] = False
+    #: The step's pair sums all use the positions at its start (DFSPH), not the drifted ones
+    #: (WCSPH's kick-drift-kick): the list must be valid there only (``rollout.needs_rebuild``,
+    #: ``step.check``), however far a particle then moves in the step.
+    sums_at_start: ClassVar[bool] = False
 
     @property
     def uses_nu(self) -> bool:
@@ -85,6 +89,11 @@ class FluidScheme(Term):
         if self.uses_nu:
             unstable |= dt * f.nu > 0.25 * f.h**2
         return unstable
+
+    def solver_status(self, P):
+        """``Status`` bits [int32] of the scheme's own solves for particles ``P`` just advanced (in
+        jit; explicit schemes: none)."""
+        return jnp.zeros((), jnp.int32)
 
     def prime(self, P, nbrs, params, config):
         raise NotImplementedError
@@ -168,6 +177,117 @@ class WCSPH(FluidScheme):
         B = f.rho0 * f.c0**2 / g
         # e(rho) = B/(g-1) [ (rho/rho0)^(g-1) - 1 ] / rho0 ... integral of p/rho^2 from rho0
         return B / rho * (jnp.power(rho / f.rho0, g) / (g - 1.0) + 1.0) - B / f.rho0 * (g / (g - 1.0))
+
+
+@dataclasses.dataclass(frozen=True)
+class DFSPH(FluidScheme):
+    """Divergence-free SPH (``sph.dfsph``; Bender & Koschier 2015, 2017): summed densities, a
+    divergence solve and a density solve per step (projected Jacobi on the pressure), walls and
+    block particles as volumes (Akinci et al. 2012), a viscous term, symplectic Euler.
+
+    ``tolerance``: the density solve's mean residual ``|rho/rho0 - 1|`` at which it stops (0.1 %);
+    ``divergence_tolerance``: the divergence solve's mean ``dt |D|``; ``min_iterations`` /
+    ``max_iterations``: the sweeps of each solve (a solve still above its tolerance at the cap sets
+    ``Status.SOLVER_NOT_CONVERGED``); ``iterations``: None runs each solve until it converges (a
+    ``while_loop``: forward only), an int runs exactly that many sweeps, masked once converged
+    (differentiable); ``divergence_solve``: run the divergence solve; ``min_neighbours``: rows
+    with fewer neighbours get no divergence correction (free surface); ``warm_start``: the share of
+    the previous step's pressures each solve starts from; ``relaxation``: the Jacobi step, below
+    2 / lambda_max of the solves' operator (0.4: lambda_max 4.2 for Wendland C2 at h = 1.3 dx);
+    ``mach``: ``Params.fluid.c0`` is read as the scene's speed scale over ``mach`` (the scenes set
+    ``c0 = 10 v_max``), so the time step is the velocity CFL ``cfl h / (mach c0)``, 1/``mach``
+    times WCSPH's acoustic one.
+    """
+
+    name = "dfsph"
+    sums_at_start = True
+    kernel: Kernel = WendlandC2()
+    viscosity: Viscosity = Laminar()
+    tolerance: float = 1e-3
+    divergence_tolerance: float = 1e-3
+    min_iterations: int = 2
+    max_iterations: int = 100
+    iterations: int | None = None
+    divergence_solve: bool = True
+    min_neighbours: int = 20
+    warm_start: float = 1.0
+    relaxation: float = 0.4
+    mach: float = 0.1
+
+    def __post_init__(self):
+        _check_type("DFSPH", "kernel", self.kernel, Kernel)
+        _check_type("DFSPH", "viscosity", self.viscosity, Viscosity)
+        for field in ("tolerance", "divergence_tolerance", "mach"):
+            value = getattr(self, field)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"DFSPH: {field} must be a positive finite number (got {value!r})")
+        if not (isinstance(self.min_iterations, int) and isinstance(self.max_iterations, int)
+                and 1 <= self.min_iterations <= self.max_iterations):
+            raise ValueError(f"DFSPH: need integers 1 <= min_iterations <= max_iterations (got "
+                             f"{self.min_iterations!r}, {self.max_iterations!r})")
+        if self.iterations is not None and not (isinstance(self.iterations, int) and self.iterations >= 1):
+            raise ValueError(f"DFSPH: iterations must be None (solve until converged) or an int >= 1 "
+                             f"(a fixed, differentiable sweep count); got {self.iterations!r}")
+        if not (0.0 <= self.warm_start <= 1.0):
+            raise ValueError(f"DFSPH: warm_start must be in [0, 1] (got {self.warm_start!r})")
+        if not (0.0 < self.relaxation < 1.0):
+            raise ValueError(f"DFSPH: relaxation must be in (0, 1) (got {self.relaxation!r}); the Jacobi sweeps "
+                             "diverge above 2 / lambda_max of the solves' operator (0.48 for Wendland C2 at h = 1.3 dx)")
+
+    @property
+    def uses_nu(self) -> bool:
+        return self.viscosity.uses_nu
+
+    def stable_dt(self, params, *, cfl: float) -> float:
+        """Largest stable time step [s]: ``min(cfl h / (mach c0), 0.125 h^2 / nu [if uses_nu],
+        0.25 sqrt(h / |g|))`` (the velocity CFL for the scene's speed scale ``mach c0``)."""
+        f = params.fluid
+        h, c0, nu = float(f.h), float(f.c0), float(f.nu)
+        g = float(np.linalg.norm(np.asarray(params.gravity)))
+        limits = [cfl * h / (self.mach * c0)]
+        if self.uses_nu and nu > 0:
+            limits.append(0.125 * h * h / nu)
+        if g > 0:
+            limits.append(0.25 * math.sqrt(h / g))
+        return min(limits)
+
+    def unstable_dt(self, dt: float, params, vmax):
+        """True where the fastest particle moves more than ``h`` in a step (or the viscous limit)."""
+        f = params.fluid
+        unstable = dt * vmax > f.h
+        if self.uses_nu:
+            unstable |= dt * f.nu > 0.25 * f.h**2
+        return unstable
+
+    def solver_status(self, P):
+        from ..types import Status
+        from .dfsph import SOLVER_COLUMNS
+
+        if P.solver is None:
+            return jnp.zeros((), jnp.int32)
+        col = {c: k for k, c in enumerate(SOLVER_COLUMNS)}
+        n = jnp.maximum(jnp.sum(P.kind == 0), 1)
+        dens = jnp.sum(P.solver[:, col["density_error"]]) / n
+        div = jnp.sum(P.solver[:, col["divergence_error"]]) / n
+        it_d = jnp.max(P.solver[:, col["iterations_density"]])
+        it_v = jnp.max(P.solver[:, col["iterations_divergence"]])
+        bad = ((it_d >= self.max_iterations) & (dens > self.tolerance)) | (
+            (it_v >= self.max_iterations) & (div > self.divergence_tolerance))
+        return jnp.where(bad, jnp.int32(Status.SOLVER_NOT_CONVERGED), jnp.int32(0))
+
+    def prime(self, P, nbrs, params, config):
+        from . import dfsph
+
+        return dfsph.prime(P, nbrs, params, config)
+
+    def advance(self, P, nbrs, params, config, *, bodies: tuple = ()):
+        from . import dfsph
+
+        return dfsph.advance(P, nbrs, params, config, bodies=bodies)
+
+    def elastic_energy(self, rho, params):
+        """Zero: the incompressible scheme stores no elastic energy."""
+        return jnp.zeros_like(rho)
 
 
 @dataclasses.dataclass(frozen=True)

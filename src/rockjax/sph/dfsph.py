@@ -1,0 +1,315 @@
+"""The divergence-free incompressible scheme (``sph.schemes.DFSPH``; Bender & Koschier 2015, 2017).
+
+Densities by summation, ``rho_i / rho0 = sum_j V_j W_ij`` over fluid, wall and block particles
+(``V_j = Particles.vol / lattice_sum``: a filled lattice is at rest density), and a pressure
+``kappa`` [m^2/s^2] (``p / rho0``) per fluid particle chosen each step by two solves, so that the
+velocities leave the density at rho0 (the *density solve*) and carry no compression (the
+*divergence solve*). One step (time t -> t + dt), all on the geometry at t:
+
+1. ``rho_i`` and the DFSPH factor ``1 / S_i``, ``S_i = |sum_j V_j grad W_ij|^2 + sum_j |V_j grad W_ij|^2``
+   (fluid j in the second sum), the diagonal of the solves' operator;
+2. divergence solve on ``v(t)``: residual ``dt D_i``, ``D_i = sum_j V_j (v_i - v_j) . grad W_ij`` (the
+   rate of the density ratio; rows with fewer than ``min_neighbours`` neighbours are left alone:
+   at a free surface a missing neighbour is not compression);
+3. non-pressure accelerations (gravity, the viscous term ``DFSPH.viscosity``): ``v* = v + dt a_np``;
+4. density solve on ``v*``: residual ``rho_i / rho0 + dt D_i(v*) - 1``;
+5. ``x(t + dt) = x + dt v``.
+
+The pressure acts as ``a_i = -sum_j V_j (kappa_i + kappa_j) grad W_ij`` over fluid j and
+``-sum_b V_b kappa_i grad W_ib`` over wall and block particles b (Akinci et al. 2012: the
+adjoint of the wall terms of ``D``, so the solves' operator ``D(a(kappa))`` is symmetric);
+momentum-conserving between fluid particles, and the pair term on a block particle is the force
+the block gets back (``advance(..., bodies=)``).
+
+Each solve is projected Jacobi on the total pressure (as IISPH clamps its pressures):
+``kappa_i <- max(kappa_i + relaxation r_i / (dt^2 S_i), 0)`` with the signed residual ``r``, so
+the pressure can fall as well as rise, and is never negative (a free surface pulls nothing). The
+relaxation must stay below ``2 / lambda_max`` of ``diag(1/S) D a``: lambda_max = 4.2 for Wendland
+C2 at h = 1.3 dx (2.8 for the cubic spline at h = dx), so the default is 0.4; SPlisHSPlasH's
+increments (``max(r, 0)`` at relaxation 1, restarted at half the last pressure) hide that
+divergence by never lowering a pressure. A solve stops when the mean ``|r|`` over the fluid rows
+that carry pressure or are compressed is at or below its tolerance (after ``min_iterations``), or
+at ``max_iterations``; each starts from ``warm_start`` times the previous step's pressure
+(``Particles.solver``).
+
+Loops: ``DFSPH(iterations=None)`` runs each solve as a ``lax.while_loop`` until converged (the
+forward default: a run pays for the sweeps it needs); reverse-mode AD cannot go through it.
+``DFSPH(iterations=n)`` runs exactly n sweeps per solve in a ``lax.fori_loop`` with the updates
+masked once converged (a fixed trip count: differentiable, each step costs n sweeps).
+
+The time step carries no gradient: ``Config.dt`` is static, chosen on the host from the velocity
+CFL (``DFSPH.stable_dt``); a step whose fastest particle moves more than ``0.5 h`` sets
+``Status.UNSTABLE_DT``, and a solve ending above its tolerance at ``max_iterations`` sets
+``Status.SOLVER_NOT_CONVERGED`` (the driver stops with the step and the advice).
+
+At rest, DFSPH water started on a lattice moves as much as the peer's: a 0.2 m tank at dx 0.02
+keeps ~0.1 m/s of particle noise after 1 s with water's viscosity (SPlisHSPlasH 0.17 m/s); a
+viscosity damps it (RESULTS.md, "DFSPH").
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from ..types import Config, Kind, NeighbourList, Params, Particles
+from .neighbours import neighbour_kind, pairs, take, wrap_positions
+
+__all__ = ["Geometry", "geometry", "lattice_sum", "divergence", "pressure_acceleration", "advance", "prime",
+           "SOLVER_COLUMNS"]
+
+#: Columns of ``Particles.solver`` [N, 6] (fluid rows; zero on walls): the density solve's
+#: pressure kappa [m^2/s^2], the divergence solve's, the last density residual of the step, the last
+#: divergence residual (``dt D``), and the sweeps each solve took (every row holds the same count).
+SOLVER_COLUMNS = ("kappa_density", "kappa_divergence", "density_error", "divergence_error",
+                  "iterations_density", "iterations_divergence")
+
+#: Lattice offsets (in spacings) of ``lattice_sum``: every kernel here has support 2h, and h/dx
+#: up to 3 is covered.
+_LATTICE_REACH = 6
+
+
+def lattice_sum(vol, h, kernel):
+    """``sum_n dx^3 W(|n| dx, h)`` over the cubic lattice of spacing ``dx = vol^(1/3)`` (n in Z^3):
+    the density ratio that ``sum_j V_j W_ij`` gives inside a filled lattice (1.0095 for Wendland C2
+    at h = 1.3 dx, not 1). ``geometry`` divides the volumes by it, so water at rest on its lattice
+    is at rest density (as SPlisHSPlasH sets a particle's volume to 0.8 (2 r)^3 for its kernel);
+    without it the density solve expanded the water by ~1 %."""
+    dx = jnp.cbrt(vol)
+    n = jnp.arange(-_LATTICE_REACH, _LATTICE_REACH + 1, dtype=jnp.asarray(vol).dtype)
+    r = dx * jnp.sqrt(n[:, None, None] ** 2 + n[None, :, None] ** 2 + n[None, None, :] ** 2)
+    return vol * jnp.sum(kernel.w(r, h))
+
+
+def _volumes(vol, h, kernel):
+    """The sums' volumes [N] m^3: ``vol / lattice_sum`` of the first particle's volume."""
+    return vol / lattice_sum(jax.lax.stop_gradient(vol[0]), h, kernel)
+
+
+class Geometry(NamedTuple):
+    """What a step's sums share, on the positions at the start of the step (fluid rows, [nf, K]).
+
+    ``idx``: the list; ``gw``: three arrays ``V_j grad_i W_ij`` [1/m]; ``fluid_j``: the pair is
+    real and j is fluid; ``pair``: the pair is real; ``rho``: [nf] density ratio ``rho / rho0``;
+    ``factor``: [nf] ``1 / S_i`` [m^2] (0 where the sums vanish); ``count``: [nf] neighbours.
+    """
+
+    idx: jax.Array
+    gw: tuple
+    fluid_j: jax.Array
+    pair: jax.Array
+    rho: jax.Array
+    factor: jax.Array
+    count: jax.Array
+
+
+def geometry(x, kind, vol, nbrs: NeighbourList, params: Params, config: Config) -> Geometry:
+    """``Geometry`` of the fluid rows at positions ``x`` [N, 3] (step 1 of the module docstring)."""
+    h = params.fluid.h
+    kernel = config.scheme.kernel
+    vol = _volumes(vol, h, kernel)
+    pr = pairs(x, kind, nbrs.idx, config)
+    fluid_row = kind[: config.n_fluid] == Kind.FLUID
+    pair = pr.mask & fluid_row[:, None]
+    V_j = take(vol, pr.idx)
+    F = jnp.where(pair, kernel.f(pr.r, h), 0.0)
+    W = jnp.where(pair, kernel.w(pr.r, h), 0.0)
+    gw = tuple(V_j * F * pr.d[a] for a in range(3))
+    fluid_j = pair & (neighbour_kind(pr.idx, config) == Kind.FLUID)
+    self_w = vol[: config.n_fluid] * kernel.w(jnp.zeros((), x.dtype), h)
+    rho = jnp.where(fluid_row, self_w + jnp.sum(V_j * W, axis=1), 1.0)
+    s = sum(jnp.sum(g, axis=1) ** 2 for g in gw) + jnp.sum(jnp.where(fluid_j, sum(g * g for g in gw), 0.0), axis=1)
+    ok = fluid_row & (s > 1e-9 / h**2)
+    factor = jnp.where(ok, 1.0 / jnp.where(ok, s, 1.0), 0.0)
+    return Geometry(idx=pr.idx, gw=gw, fluid_j=fluid_j, pair=pair, rho=rho, factor=factor, count=jnp.sum(pair, axis=1))
+
+
+def _gather_rows(values, idx):
+    """``values`` [nf] of the fluid rows at the list's columns ``idx`` (0 for wall columns)."""
+    nf = values.shape[0]
+    return take(jnp.concatenate([values, jnp.zeros((1,), values.dtype)]), jnp.minimum(idx, nf))
+
+
+def divergence(geo: Geometry, v):
+    """``D_i = sum_j V_j (v_i - v_j) . grad_i W_ij`` [1/s] of the fluid rows ([nf]) for velocities
+    ``v`` [N, 3] (wall and block particles at their own velocities)."""
+    nf = geo.idx.shape[0]
+    out = 0.0
+    for a in range(3):
+        va = v[:, a]
+        out = out + jnp.sum(geo.gw[a] * (va[:nf, None] - take(va, geo.idx)), axis=1)
+    return out
+
+
+def pressure_acceleration(geo: Geometry, kappa):
+    """``-sum_j V_j (kappa_i + kappa_j) grad W_ij`` (fluid j) ``- sum_b V_b kappa_i grad W_ib`` (wall
+    and block particles) [nf, 3] m/s^2 for ``kappa`` [nf] m^2/s^2 of the fluid rows."""
+    coef = jnp.where(geo.pair, kappa[:, None] + jnp.where(geo.fluid_j, _gather_rows(kappa, geo.idx), 0.0), 0.0)
+    return -jnp.stack([jnp.sum(coef * g, axis=1) for g in geo.gw], axis=1)
+
+
+class _Solve(NamedTuple):
+    v: jax.Array  # [N, 3]
+    kappa: jax.Array  # [nf]
+    error: jax.Array  # [] mean |residual| at the last sweep
+    row_error: jax.Array  # [nf]
+    iterations: jax.Array  # [] int32
+
+
+def _solve(geo: Geometry, v, kappa0, residual, fluid_row, *, tolerance: float, min_iterations: int,
+           max_iterations: int, fixed: int | None, relaxation: float, dt) -> _Solve:
+    """Projected Jacobi (module docstring) from the warm start ``kappa0`` [nf] (applied first) for the
+    signed ``residual(v)`` [nf]; ``fixed``: the sweeps of the differentiable form (None: while_loop)."""
+    nf = geo.idx.shape[0]
+    n_fluid = jnp.maximum(jnp.sum(fluid_row), 1)
+    step_size = relaxation * geo.factor / dt**2
+
+    def kick(v, dkappa):
+        a = pressure_acceleration(geo, dkappa)
+        return v.at[:nf].add(jnp.where(fluid_row[:, None], dt * a, 0.0))
+
+    def sweep(v, kappa):
+        r = jnp.where(fluid_row, residual(v), 0.0)
+        new = jnp.where(fluid_row, jnp.maximum(kappa + step_size * r, 0.0), 0.0)
+        e = jnp.where((new > 0) | (r > 0), jnp.abs(r), 0.0)
+        return kick(v, new - kappa), new, jnp.sum(e) / n_fluid, e
+
+    v = kick(v, kappa0)
+    inf = jnp.asarray(jnp.inf, v.dtype)
+    init = (jnp.zeros((), jnp.int32), v, kappa0, inf, jnp.zeros((nf,), v.dtype))
+    if fixed is None:
+        def cond(c):
+            it, _, _, err, _ = c
+            return (it < min_iterations) | ((err > tolerance) & (it < max_iterations))
+
+        def body(c):
+            it, v, kappa, _, _ = c
+            return (it + 1,) + sweep(v, kappa)
+
+        return _finish(jax.lax.while_loop(cond, body, init))
+
+    def masked(_, c):
+        it, v, kappa, err, e_last = c
+        go = (it < min_iterations) | (err > tolerance)
+        new = sweep(v, kappa)
+        pick = lambda a, b: jnp.where(go, a, b)  # noqa: E731
+        return (it + go.astype(jnp.int32), pick(new[0], v), pick(new[1], kappa), pick(new[2], err), pick(new[3], e_last))
+
+    return _finish(jax.lax.fori_loop(0, fixed, masked, init))
+
+
+def _finish(carry) -> _Solve:
+    it, v, kappa, err, e = carry
+    return _Solve(v=v, kappa=kappa, error=err, row_error=e, iterations=it)
+
+
+def _non_pressure_acceleration(x, v, rho, vol, kind, nbrs, params: Params, config: Config):
+    """Gravity plus the scheme's viscous term [nf, 3] m/s^2 (``sph.viscosity``, pressures zero)."""
+    from . import wcsph
+
+    scheme = config.scheme
+    f = params.fluid
+    nf = config.n_fluid
+    fluid_row = kind[:nf] == Kind.FLUID
+    pr = pairs(x, kind, nbrs.idx, config)
+    F = jnp.where(pr.mask, scheme.kernel.f(pr.r, f.h), 0.0)
+    fluid_j = neighbour_kind(pr.idx, config) == Kind.FLUID
+    extra = scheme.viscosity.values(x, v, rho, vol, kind, nbrs, params, config)
+    ri = {k: a[:nf, None] for k, a in extra.items()}
+    cj = {k: take(a, pr.idx) for k, a in extra.items()}
+    vij = tuple(v[:nf, a][:, None] - take(v[:, a], pr.idx) for a in range(3))
+    zero = jnp.zeros((), v.dtype)
+    cf, lam, e = wcsph._pair_force_factors(f.rho0 * take(vol, pr.idx), rho[:nf, None], take(rho, pr.idx), zero, zero,
+                                           vij, pr.d, pr.r2, F, fluid_j, params, config, ri, cj)
+    acc = wcsph._combine(cf, lam, e, pr.d, vij)
+    acc = jnp.stack([jnp.sum(jnp.where(pr.mask, c, 0.0), axis=1) for c in acc], axis=1) + params.gravity
+    return jnp.where(fluid_row[:, None], acc, 0.0)
+
+
+def _solver_array(P: Particles):
+    if P.solver is not None:
+        return P.solver
+    return jnp.zeros((P.x.shape[0], len(SOLVER_COLUMNS)), P.x.dtype)
+
+
+def _densities(P: Particles, geo: Geometry, params: Params, nf: int):
+    """``Particles.rho`` [N] with the fluid rows' summed densities (walls as they were)."""
+    fluid_row = P.kind[:nf] == Kind.FLUID
+    return P.rho.at[:nf].set(jnp.where(fluid_row, params.fluid.rho0 * geo.rho, P.rho[:nf]))
+
+
+def prime(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -> Particles:
+    """Fill the summed densities and an empty ``Particles.solver`` (the first step solves from zero)."""
+    geo = geometry(P.x, P.kind, P.vol, nbrs, params, config)
+    return P.replace(rho=_densities(P, geo, params, config.n_fluid), solver=_solver_array(P))
+
+
+def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *, bodies: tuple[int, ...] = ()):
+    """One DFSPH step of length ``config.dt`` (module docstring). Returns the new ``Particles``; with
+    ``bodies`` ``(Particles, (row [M], col [M], force, x_row))``: over the (fluid, block particle)
+    pairs of the list, the force [N] on fluid particle ``row`` from block particle ``col`` over the
+    step (the two solves' pressure and the viscous term), three [M] components, zero for other
+    pairs, and the rows' positions at which it acted (the start of the step)."""
+    scheme = config.scheme
+    dt = config.dt
+    f = params.fluid
+    nf = config.n_fluid
+    kind = P.kind
+    fluid = kind == Kind.FLUID
+    fluid_row = fluid[:nf]
+    solver = _solver_array(P)
+    geo = geometry(P.x, kind, P.vol, nbrs, params, config)
+    rho = _densities(P, geo, params, nf)
+    loop = dict(min_iterations=scheme.min_iterations, max_iterations=scheme.max_iterations, fixed=scheme.iterations,
+                relaxation=scheme.relaxation, dt=dt)
+
+    v0 = P.v
+    v = v0
+    zeros = jnp.zeros((nf,), v.dtype)
+    sv = _Solve(v=v, kappa=zeros, error=jnp.zeros((), v.dtype), row_error=zeros, iterations=jnp.zeros((), jnp.int32))
+    if scheme.divergence_solve:
+        few = geo.count < scheme.min_neighbours
+        sv = _solve(geo, v, scheme.warm_start * solver[:nf, 1],
+                    lambda v: jnp.where(few, 0.0, dt * divergence(geo, v)), fluid_row,
+                    tolerance=scheme.divergence_tolerance, **loop)
+        v = sv.v
+
+    a_np = _non_pressure_acceleration(P.x, v, rho, P.vol, kind, nbrs, params, config)
+    v_visc = v
+    v = v.at[:nf].add(dt * a_np)
+    sd = _solve(geo, v, scheme.warm_start * solver[:nf, 0], lambda v: geo.rho + dt * divergence(geo, v) - 1.0,
+                fluid_row, tolerance=scheme.tolerance, **loop)
+    v = jnp.where(fluid[:, None], sd.v, P.v)
+    x_new = wrap_positions(jnp.where(fluid[:, None], P.x + dt * v, P.x), config.grid)
+    kappa = sd.kappa + sv.kappa
+    n = P.x.shape[0]
+    pad = lambda c: jnp.concatenate([c, jnp.zeros((n - nf,), c.dtype)])  # noqa: E731
+    cols = [sd.kappa, sv.kappa, sd.row_error, sv.row_error,
+            jnp.full((nf,), sd.iterations, v.dtype), jnp.full((nf,), sv.iterations, v.dtype)]
+    P_new = P.replace(x=x_new, v=v, a=jnp.where(fluid[:, None], (v - v0) / dt, 0.0), rho=rho,
+                      p=P.p.at[:nf].set(jnp.where(fluid_row, f.rho0 * kappa, 0.0)), drho_dt=jnp.zeros_like(P.rho),
+                      solver=jnp.stack([pad(c) for c in cols], axis=1))
+    if not bodies:
+        return P_new
+    return P_new, _body_pair_forces(P, kappa, v_visc, rho, nbrs, bodies, params, config)
+
+
+def _body_pair_forces(P, kappa, v, rho, nbrs, bodies, params: Params, config: Config):
+    """Per (fluid row, block particle) pair of the list: the force on the fluid particle from the
+    block particle over the step: pressure ``-m_i V_b kappa_i grad W_ib`` (what the solves applied,
+    ``pressure_acceleration``) plus the viscous pair term (``wcsph.wall_pair_forces`` with zero
+    pressure), with ``v`` the velocities the viscous term saw."""
+    from . import wcsph
+    from .walls import wall_pair_geometry
+
+    f = params.fluid
+    bp = wall_pair_geometry(P.x, nbrs, config.grid, bodies=config.has_body_pairs)
+    body_j = take(P.body, bp.col)
+    on = bp.valid & (take(P.kind, bp.row) == Kind.FLUID) & jnp.isin(body_j, jnp.asarray(bodies, body_j.dtype))
+    F = jnp.where(on, config.scheme.kernel.f(bp.r, f.h), 0.0)
+    vol = _volumes(P.vol, f.h, config.scheme.kernel)
+    coef = -(f.rho0 * take(P.vol, bp.row)) * take(vol, bp.col) * take(kappa, jnp.minimum(bp.row, kappa.shape[0] - 1)) * F
+    visc = wcsph.wall_pair_forces(bp, on, v, rho, jnp.zeros_like(P.p), P.vol, params, config)
+    return bp.row, bp.col, tuple(coef * bp.d[a] + visc[a] for a in range(3)), P.x
