@@ -89,7 +89,9 @@ def check(state: State, params: Params, config: Config) -> jax.Array:
     vmax = jnp.sqrt(jnp.max(jnp.where(fluid, jnp.sum(P.v * P.v, -1), 0.0)))
     unstable = config.scheme.unstable_dt(config.dt, params, vmax)
     status |= jnp.where(unstable, Status.UNSTABLE_DT, 0)
-    status |= config.scheme.solver_status(P)
+    solver_bits = config.scheme.solver_status(P)
+    if solver_bits is not None:
+        status |= solver_bits
     return status.astype(jnp.int32)
 
 

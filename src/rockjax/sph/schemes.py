@@ -92,8 +92,8 @@ class FluidScheme(Term):
 
     def solver_status(self, P):
         """``Status`` bits [int32] of the scheme's own solves for particles ``P`` just advanced (in
-        jit; explicit schemes: none)."""
-        return jnp.zeros((), jnp.int32)
+        jit), or None for a scheme without solves (nothing is traced)."""
+        return None
 
     def prime(self, P, nbrs, params, config):
         raise NotImplementedError
