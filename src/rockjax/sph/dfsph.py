@@ -105,12 +105,13 @@ class Geometry(NamedTuple):
     count: jax.Array
 
 
-def geometry(x, kind, vol, nbrs: NeighbourList, params: Params, config: Config) -> Geometry:
-    """``Geometry`` of the fluid rows at positions ``x`` [N, 3] (step 1 of the module docstring)."""
+def geometry(x, kind, vol, nbrs: NeighbourList, params: Params, config: Config, *, pr=None) -> Geometry:
+    """``Geometry`` of the fluid rows at positions ``x`` [N, 3] (step 1 of the module docstring);
+    ``pr``: their ``neighbours.Pairs`` if already computed."""
     h = params.fluid.h
     kernel = config.scheme.kernel
     vol = _volumes(vol, h, kernel)
-    pr = pairs(x, kind, nbrs.idx, config)
+    pr = pairs(x, kind, nbrs.idx, config) if pr is None else pr
     fluid_row = kind[: config.n_fluid] == Kind.FLUID
     pair = pr.mask & fluid_row[:, None]
     V_j = take(vol, pr.idx)
@@ -205,15 +206,15 @@ def _finish(carry) -> _Solve:
     return _Solve(v=v, kappa=kappa, error=err, row_error=e, iterations=it)
 
 
-def _non_pressure_acceleration(x, v, rho, vol, kind, nbrs, params: Params, config: Config):
-    """Gravity plus the scheme's viscous term [nf, 3] m/s^2 (``sph.viscosity``, pressures zero)."""
+def _non_pressure_acceleration(pr, x, v, rho, vol, kind, nbrs, params: Params, config: Config):
+    """Gravity plus the scheme's viscous term [nf, 3] m/s^2 (``sph.viscosity``, pressures zero) over
+    the fluid rows' pairs ``pr``."""
     from . import wcsph
 
     scheme = config.scheme
     f = params.fluid
     nf = config.n_fluid
     fluid_row = kind[:nf] == Kind.FLUID
-    pr = pairs(x, kind, nbrs.idx, config)
     F = jnp.where(pr.mask, scheme.kernel.f(pr.r, f.h), 0.0)
     fluid_j = neighbour_kind(pr.idx, config) == Kind.FLUID
     extra = scheme.viscosity.values(x, v, rho, vol, kind, nbrs, params, config)
@@ -260,7 +261,8 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     fluid = kind == Kind.FLUID
     fluid_row = fluid[:nf]
     solver = _solver_array(P)
-    geo = geometry(P.x, kind, P.vol, nbrs, params, config)
+    pr = pairs(P.x, kind, nbrs.idx, config)  # the step's one pair geometry
+    geo = geometry(P.x, kind, P.vol, nbrs, params, config, pr=pr)
     rho = _densities(P, geo, params, nf)
     loop = dict(min_iterations=scheme.min_iterations, max_iterations=scheme.max_iterations, fixed=scheme.iterations,
                 relaxation=scheme.relaxation, dt=dt)
@@ -276,7 +278,7 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
                     tolerance=scheme.divergence_tolerance, **loop)
         v = sv.v
 
-    a_np = _non_pressure_acceleration(P.x, v, rho, P.vol, kind, nbrs, params, config)
+    a_np = _non_pressure_acceleration(pr, P.x, v, rho, P.vol, kind, nbrs, params, config)
     v_visc = v
     v = v.at[:nf].add(dt * a_np)
     sd = _solve(geo, v, scheme.warm_start * solver[:nf, 0], lambda v: geo.rho + dt * divergence(geo, v) - 1.0,

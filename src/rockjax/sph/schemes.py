@@ -260,13 +260,13 @@ class DFSPH(FluidScheme):
         return unstable
 
     def solver_status(self, P):
-        from ..types import Status
+        from ..types import Kind, Status
         from .dfsph import SOLVER_COLUMNS
 
         if P.solver is None:
             return jnp.zeros((), jnp.int32)
         col = {c: k for k, c in enumerate(SOLVER_COLUMNS)}
-        n = jnp.maximum(jnp.sum(P.kind == 0), 1)
+        n = jnp.maximum(jnp.sum(P.kind == Kind.FLUID), 1)
         dens = jnp.sum(P.solver[:, col["density_error"]]) / n
         div = jnp.sum(P.solver[:, col["divergence_error"]]) / n
         it_d = jnp.max(P.solver[:, col["iterations_density"]])
