@@ -291,6 +291,7 @@ def make_state(*, config: Config, x: np.ndarray, kind: np.ndarray, vol: np.ndarr
         x=jnp.asarray(x, dt), v=jnp.asarray(v, dt), a=jnp.zeros((n, 3), dt), rho=jnp.asarray(rho, dt),
         drho_dt=jnp.zeros((n,), dt), p=jnp.zeros((n,), dt), vol=jnp.asarray(vol, dt),
         kind=jnp.asarray(kind, jnp.int32), pid=jnp.arange(n, dtype=jnp.int32),
+        solver=config.scheme.initial_solver(n, dt),
     )
     nbrs = empty_neighbours(config, particles.x)
     return State(step=jnp.zeros((), jnp.int32), particles=particles, nbrs=nbrs, status=jnp.zeros((), jnp.int32))

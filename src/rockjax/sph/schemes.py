@@ -90,6 +90,11 @@ class FluidScheme(Term):
             unstable |= dt * f.nu > 0.25 * f.h**2
         return unstable
 
+    def initial_solver(self, n: int, dtype):
+        """The ``Particles.solver`` record of a new state with ``n`` particles (None: no solves), so a
+        scene's state has the same arrays before and after its first step (checkpoints, resume)."""
+        return None
+
     def solver_status(self, P):
         """``Status`` bits [int32] of the scheme's own solves for particles ``P`` just advanced (in
         jit), or None for a scheme without solves (nothing is traced)."""
@@ -258,6 +263,11 @@ class DFSPH(FluidScheme):
         if self.uses_nu:
             unstable |= dt * f.nu > 0.25 * f.h**2
         return unstable
+
+    def initial_solver(self, n: int, dtype):
+        from .dfsph import SOLVER_COLUMNS
+
+        return jnp.zeros((n, len(SOLVER_COLUMNS)), dtype)
 
     def solver_status(self, P):
         from ..types import Kind, Status
