@@ -107,13 +107,17 @@ def load(P: Particles, nbrs: NeighbourList, blocks, params: Params, config: Conf
 
     A momentum sum per coupled block with the scheme's own pair forces (used at priming); a step
     gets the same pair terms from its own force pass (``wcsph.advance(..., bodies=...)`` with
-    ``from_pair_forces``, ``seed.advance(..., bodies=...)`` with ``from_accelerations``).
+    ``from_pair_forces``, ``seed.advance(..., bodies=...)`` with ``from_accelerations``). DFSPH has
+    no pressure before its first solves: zero at priming (its steps give ``from_pair_forces``).
     """
     nf = config.n_fluid
-    pr = pairs(P.x, P.kind, nbrs.idx, config)
     bodies = coupled_blocks(config)
-    from ..sph.schemes import SeedScheme
+    from ..sph.schemes import DFSPH, SeedScheme
 
+    if isinstance(config.scheme, DFSPH):  # no pressure before its first solve: that step gives the loads
+        zero = jnp.zeros((blocks.x.shape[0], 3), P.x.dtype)
+        return CouplingState(force=zero, torque=zero)
+    pr = pairs(P.x, P.kind, nbrs.idx, config)
     if isinstance(config.scheme, SeedScheme):
         return from_accelerations(P, seed.body_accelerations(pr, P, bodies, params, config), bodies, blocks, params,
                                   config)
