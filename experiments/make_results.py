@@ -997,10 +997,10 @@ def sec_held_box(doc: Doc):
           "the load of a held body in still water follows where the water sits: a slab short by e carries "
           "e x 3 dx / draft more load); `guard x`: the penalty's stiffness multiplied by this (`--guard-scale`; "
           "its damping by the square root).")
-    doc.p(table(["coupling", "box [m]", "tank [m]", "dx [m]", "h / dx", "guard x", "n_fluid", "steps", "Archimedes N",
+    doc.p(table(["coupling", "scheme", "box [m]", "tank [m]", "dx [m]", "h / dx", "guard x", "n_fluid", "steps", "Archimedes N",
                  "load t = 0 N", "mean load N", "ratio", "ratio t = 0", "within r0", "wall term N", "fill under", "wall s",
                  "load", "date"],
-                [[r["coupling"], " x ".join(f"{v:g}" for v in r["box"]), " x ".join(f"{v:g}" for v in r["tank"]),
+                [[r["coupling"], r.get("scheme", "wcsph"), " x ".join(f"{v:g}" for v in r["box"]), " x ".join(f"{v:g}" for v in r["tank"]),
                   r["dx"], r["h_factor"], r.get("guard_scale", 1.0), r["n_fluid"], r["steps"], r["archimedes_N"], r["load_t0_N"], r["load_mean_N"],
                   r["ratio"], r["ratio_t0"], r.get("n_within_r0", "-"), r.get("wall_term_N") or "-", r.get("fill_under", "-"), r["wall_s"],
                   r.get("load"), r.get("date")] for r in recs]))
