@@ -229,10 +229,10 @@ def _non_pressure_acceleration(pr, x, v, rho, vol, kind, nbrs, params: Params, c
     return jnp.where(fluid_row[:, None], acc, 0.0)
 
 
-def _solver_array(P: Particles):
-    if P.solver is not None:
-        return P.solver
-    return jnp.zeros((P.x.shape[0], len(SOLVER_COLUMNS)), P.x.dtype)
+def _solver_array(P: Particles, config: Config):
+    """``P.solver``, or the scheme's empty record for a state made without one (a scene built for
+    another scheme and given ``Config.replace(scheme=DFSPH())``)."""
+    return P.solver if P.solver is not None else config.scheme.initial_solver(P.x.shape[0], P.x.dtype)
 
 
 def _densities(P: Particles, geo: Geometry, params: Params, nf: int):
@@ -244,7 +244,7 @@ def _densities(P: Particles, geo: Geometry, params: Params, nf: int):
 def prime(P: Particles, nbrs: NeighbourList, params: Params, config: Config) -> Particles:
     """Fill the summed densities and an empty ``Particles.solver`` (the first step solves from zero)."""
     geo = geometry(P.x, P.kind, P.vol, nbrs, params, config)
-    return P.replace(rho=_densities(P, geo, params, config.n_fluid), solver=_solver_array(P))
+    return P.replace(rho=_densities(P, geo, params, config.n_fluid), solver=_solver_array(P, config))
 
 
 def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *, bodies: tuple[int, ...] = ()):
@@ -260,7 +260,7 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     kind = P.kind
     fluid = kind == Kind.FLUID
     fluid_row = fluid[:nf]
-    solver = _solver_array(P)
+    solver = _solver_array(P, config)
     pr = pairs(P.x, kind, nbrs.idx, config)  # the step's one pair geometry
     geo = geometry(P.x, kind, P.vol, nbrs, params, config, pr=pr)
     rho = _densities(P, geo, params, nf)
