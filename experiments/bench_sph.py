@@ -52,9 +52,21 @@ def _cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
+def _sweeps(state) -> dict:
+    """The last step's solver sweeps (DFSPH's ``Particles.solver``; empty for explicit schemes)."""
+    solver = state.particles.solver
+    if solver is None:
+        return {}
+    import numpy as np
+
+    s = np.asarray(solver)
+    return {"sweeps_density": int(s[:, 4].max()), "sweeps_divergence": int(s[:, 5].max())}
+
+
 def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: float | None,
              rebuild_every: int | None, warm_time: float = 0.0, trigger: bool = True, tag: str = "",
-             diffusion: str | None = None, gather: str | None = None, row_tile: int | None = None) -> dict:
+             diffusion: str | None = None, gather: str | None = None, row_tile: int | None = None,
+             kernel: str | None = None, h_factor: float | None = None, cfl: float | None = None) -> dict:
     import jax
     import numpy as np
 
@@ -69,7 +81,11 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
         kw["skin_factor"] = skin_factor
     if rebuild_every is not None:
         kw["rebuild_every"] = rebuild_every
-    fluid_scheme = rj.sph.from_names(scheme)
+    if h_factor is not None:
+        kw["h_factor"] = h_factor
+    if cfl is not None:
+        kw["cfl"] = cfl
+    fluid_scheme = rj.sph.from_names(scheme, kernel=kernel)
     if diffusion is not None and hasattr(fluid_scheme, "diffusion"):  # WCSPH's term; the seed scheme has none
         fluid_scheme = fluid_scheme.replace(diffusion=rj.sph.by_name("diffusion", diffusion))
     t0 = time.perf_counter()
@@ -148,6 +164,8 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
         "diffusion": diffusion_term.name if diffusion_term is not None else None,
         "gather": config.effective_gather.value, "row_tile": config.effective_row_tile, "n_fluid": nf, "n_wall": nw,
         "dx": 0.5 / nx, "dtype": str(np.asarray(state.particles.x).dtype),
+        "kernel": config.scheme.kernel.name, "h_dx": round(float(params.fluid.h) / (0.5 / nx), 3),
+        "dt": config.dt, "sim_s_per_wall_s": round(steps * config.dt / wall, 5), **_sweeps(out),
         "K": config.neighbour_capacity, "cell_capacity": config.cell_capacity,
         "skin_dx": round(config.skin / (0.5 / nx), 3), "rebuild_every": config.rebuild_every, "regrows": regrows,
         "trigger": trigger, "warm_s": round(warm_steps * config.dt, 4), "rebuilds": rebuilds,
@@ -163,7 +181,8 @@ def run_case(size: str, scheme: str, *, blocks: int, reps: int, skin_factor: flo
     }
 
 
-def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: float = 0.0, tag: str = "") -> dict:
+def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: float = 0.0, tag: str = "",
+            scheme: str = "wcsph") -> dict:
     """Interleaved A/B in one process: for each spec ``SKIN:K:TRIGGER[:DIFFUSION]`` (skin / dx,
     rebuild_every, 0/1, optionally a density-diffusion name, ``rockjax.sph.names("diffusion")``) a chunk of ``steps`` steps (a multiple of every K) from the same initial state; reps are
     interleaved so the variants see the same machine load. Returns one record with per-spec
@@ -179,7 +198,7 @@ def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: fl
     runs = {}
     for spec in specs:
         skin, k, trig, *diff = spec.split(":")
-        kw = {"scheme": rj.sph.from_names("wcsph", diffusion=diff[0])} if diff else {}
+        kw = {"scheme": rj.sph.from_names(scheme, diffusion=diff[0]) if diff else rj.sph.from_names(scheme)}
         scene = rj.scenes.dam_break(dx=0.5 / nx, skin_factor=float(skin), rebuild_every=int(k), **kw)
         config, params, state0 = scene.config, scene.params, scene.state
         for _ in range(6):  # cure capacity bits the way the driver does
@@ -213,7 +232,7 @@ def ab_case(size: str, specs: list[str], *, steps: int, reps: int, warm_time: fl
         res[spec] = {"K": r["K"], "rebuild_every": r["k"], "ms_per_step": round(1e3 * wall / steps, 2),
                      "cpu_ms_per_step": round(1e3 * sorted(r["cpus"])[len(r["cpus"]) // 2] / steps, 2),
                      "fluid_particle_steps_per_s": round(nf * steps / wall)}
-    return {"bench": "sph_dam_break_3d_ab", "tag": tag, "size": size, "n_fluid": nf, "steps": steps, "reps": reps,
+    return {"bench": "sph_dam_break_3d_ab", "tag": tag, "size": size, "scheme": scheme, "n_fluid": nf, "steps": steps, "reps": reps,
             "warm_s": warm_time, "specs": res, "load_after": round(os.getloadavg()[0], 2), "jax": jax.__version__,
             "date": datetime.date.today().isoformat()}
 
@@ -239,14 +258,18 @@ def main(argv=None):
     ap.add_argument("--gather", default=None, choices=["components", "rows"], help="Tuning.gather (GatherForm)")
     ap.add_argument("--row-tile", type=int, default=None, help="Tuning.row_tile (0: one block)")
     ap.add_argument("--ab-steps", type=int, default=32)
+    ap.add_argument("--kernel", default=None, choices=rj.sph.names("kernel"), help="the scheme's kernel")
+    ap.add_argument("--h-factor", type=float, default=None, help="h / dx (scene default if omitted)")
+    ap.add_argument("--cfl", type=float, default=None, help="the scene's CFL number (scene default if omitted)")
     ap.add_argument("--case", nargs=2, metavar=("SIZE", "SCHEME"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     opts = dict(blocks=args.blocks, reps=args.reps, skin_factor=args.skin_factor, rebuild_every=args.rebuild_every,
                 warm_time=args.warm_time, trigger=not args.no_trigger, tag=args.tag,
-                diffusion=args.diffusion, gather=args.gather, row_tile=args.row_tile)
+                diffusion=args.diffusion, gather=args.gather, row_tile=args.row_tile,
+                kernel=args.kernel, h_factor=args.h_factor, cfl=args.cfl)
     if args.ab:
         print(json.dumps(ab_case(args.sizes[0], args.ab, steps=args.ab_steps, reps=args.reps,
-                                 warm_time=args.warm_time, tag=args.tag)), flush=True)
+                                 warm_time=args.warm_time, tag=args.tag, scheme=args.schemes[0])), flush=True)
         return
     if args.case:
         print(json.dumps(run_case(args.case[0], args.case[1], **opts)), flush=True)
@@ -265,6 +288,9 @@ def main(argv=None):
                 cmd += ["--row-tile", str(args.row_tile)]
             if args.skin_factor is not None:
                 cmd += ["--skin-factor", str(args.skin_factor)]
+            for flag, value in (("--kernel", args.kernel), ("--h-factor", args.h_factor), ("--cfl", args.cfl)):
+                if value is not None:
+                    cmd += [flag, str(value)]
             if args.rebuild_every is not None:
                 cmd += ["--rebuild-every", str(args.rebuild_every)]
             proc = subprocess.run(cmd, capture_output=True, text=True)

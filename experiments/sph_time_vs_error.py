@@ -36,11 +36,13 @@ def _cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def run(scheme: str, res: int) -> dict:
+def run(scheme: str, res: int, *, kernel: str | None = None, h_factor: float | None = None,
+        cfl: float | None = None) -> dict:
     import rockjax as rj
     from rockjax.validation import dam_break_2d, front_error, front_history, martin_moyce_n2_2
 
-    scene = dam_break_2d(a=A, resolution=res, scheme=rj.sph.from_names(scheme))
+    kw = {k: v for k, v in (("h_factor", h_factor), ("cfl", cfl)) if v is not None}
+    scene = dam_break_2d(a=A, resolution=res, scheme=rj.sph.from_names(scheme, kernel=kernel), **kw)
     t_end = 3.05 / math.sqrt(2 * 9.81 / A)
     load0 = os.getloadavg()[0]
     w0 = time.perf_counter()
@@ -59,7 +61,9 @@ def run(scheme: str, res: int) -> dict:
     errs = [front_error(T, Z, Tr, Zr, shift=s) for s in shifts]
     k = int(np.argmin(errs))
     cfg = result.scene.config
-    return {"case": "dambreak2d_mm_n2_2", "code": "rockjax", "scheme": scheme, "a_over_dx": res, "dx": A / res,
+    return {"case": "dambreak2d_mm_n2_2", "code": "rockjax", "scheme": scheme, "label": _label(scheme, kernel, h_factor, cfl),
+            "kernel": cfg.scheme.kernel.name, "h_dx": round(float(scene.params.fluid.h) * res / A, 3),
+            "dt": cfg.dt, "a_over_dx": res, "dx": A / res,
             "n_fluid": scene.counts()["fluid"], "n_wall": scene.counts()["wall"], "steps": result.stats["steps"],
             "regrows": result.stats["regrows"], "wall_s": round(wall, 2), "wall_s_with_compile": round(wall_cold, 2),
             "fluid_particle_steps_per_s": round(scene.counts()["fluid"] * result.stats["steps"] / wall),
@@ -68,6 +72,12 @@ def run(scheme: str, res: int) -> dict:
             "best_shift_T": round(float(shifts[k]), 2), "Z_sim_at_ref": np.round(np.interp(Tr, T, Z), 3).tolist(),
             "K": cfg.neighbour_capacity, "rebuild_every": cfg.rebuild_every, "skin_dx": round(cfg.skin * res / A, 3),
             "load_before": round(load0, 2), "load_after": round(os.getloadavg()[0], 2)}
+
+
+def _label(scheme: str, kernel, h_factor, cfl) -> str:
+    """The plot's name of a rockjax setting: the scheme, and what was changed from its defaults."""
+    extra = [f"{k}={v}" for k, v in (("kernel", kernel), ("h/dx", h_factor), ("cfl", cfl)) if v is not None]
+    return scheme + (" (" + ", ".join(extra) + ")" if extra else "")
 
 
 def _peers(results: pathlib.Path) -> list[dict]:
@@ -95,9 +105,9 @@ def plot(records: list[dict], png: pathlib.Path, peer_dir: pathlib.Path | None) 
     keys = [("front_rms_rel_err", "unshifted"), ("front_rms_rel_err_best_shift", "best time shift")]
     peers = _peers(peer_dir) if peer_dir is not None else []
     for ax, (key, title) in zip(axes, keys):
-        for scheme in sorted({r["scheme"] for r in records}):
-            rs = sorted((r for r in records if r["scheme"] == scheme), key=lambda r: r["wall_s"])
-            ax.plot([r["wall_s"] for r in rs], [r[key] for r in rs], "o-", label=f"rockjax {scheme}")
+        for label in sorted({r.get("label", r["scheme"]) for r in records}):
+            rs = sorted((r for r in records if r.get("label", r["scheme"]) == label), key=lambda r: r["wall_s"])
+            ax.plot([r["wall_s"] for r in rs], [r[key] for r in rs], "o-", label=f"rockjax {label}")
             for r in rs:
                 ax.annotate(f"a/dx={r['a_over_dx']}", (r["wall_s"], r[key]), fontsize=7, xytext=(3, 3),
                             textcoords="offset points")
@@ -119,6 +129,9 @@ def main(argv=None):
     ap.add_argument("--res", type=int, nargs="+", default=[8, 10, 14, 20], help="a / dx values")
     ap.add_argument("--schemes", nargs="+", default=["wcsph"])
     ap.add_argument("--out", default=None, help="path stem for .jsonl and .png (e.g. experiments/results/sph_time_vs_error)")
+    ap.add_argument("--kernel", default=None, help="the schemes' kernel (their default if omitted)")
+    ap.add_argument("--h-factor", type=float, default=None, help="h / dx (the scene's default if omitted)")
+    ap.add_argument("--cfl", type=float, default=None, help="the scene's CFL number (its default if omitted)")
     ap.add_argument("--plot-only", action="store_true", help="re-plot the records in OUT.jsonl")
     args = ap.parse_args(argv)
     peer_dir = pathlib.Path(__file__).resolve().parent / "results"
@@ -128,7 +141,7 @@ def main(argv=None):
     else:
         for res in args.res:
             for scheme in args.schemes:
-                rec = run(scheme, res)
+                rec = run(scheme, res, kernel=args.kernel, h_factor=args.h_factor, cfl=args.cfl)
                 print(json.dumps(rec), flush=True)
                 records.append(rec)
                 if args.out:

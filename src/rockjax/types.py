@@ -344,6 +344,12 @@ class Config:
         return self.body_pair_capacity > 0 and self.coupling_method.body_pairs
 
     @property
+    def needs_wall_pairs(self) -> bool:
+        """Whether list builds fill the flat (fluid, wall) pair list (``NeighbourList.wall_row``): the
+        scheme sums over it (``FluidScheme.uses_wall_pairs``), or the block sub-list is cut from it."""
+        return bool(self.scheme.uses_wall_pairs) or self.has_body_pairs
+
+    @property
     def neighbour_capacity(self) -> int:
         """K, neighbours kept per fluid-segment particle (``capacities.neighbours``)."""
         return self.capacities.neighbours

@@ -216,6 +216,16 @@ def stable_dt(params: Params, *, scheme: FluidScheme, cfl: float = 0.25) -> floa
     return scheme.stable_dt(params, cfl=cfl)
 
 
+def scheme_resolution(scheme: FluidScheme, h_factor: float | None, cfl: float | None,
+                      skin_factor: float | None = None) -> tuple[float, float, float]:
+    """``(h_factor, cfl, skin_factor)``: the given values, or the scheme's own where None
+    (``FluidScheme.default_h_factor``, ``default_cfl``, ``default_skin_factor``: WCSPH 1.3, 0.25
+    and 0.3; DFSPH its kernel's h / dx, 0.4 and 0.05)."""
+    return (scheme.default_h_factor if h_factor is None else h_factor,
+            scheme.default_cfl if cfl is None else cfl,
+            scheme.default_skin_factor if skin_factor is None else skin_factor)
+
+
 def as_scheme(scheme) -> FluidScheme:
     """A fluid scheme object from an object or a scheme name (``"wcsph"``, ``"seed"``: its default terms)."""
     return from_names(scheme) if isinstance(scheme, str) else scheme

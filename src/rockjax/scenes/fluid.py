@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from ..sph.schemes import WCSPH, FluidScheme, SeedScheme
-from .base import GRAVITY, Resolution, Scene, _positive, as_scheme, fluid_scene, lattice, tank_walls
+from .base import GRAVITY, Resolution, Scene, _positive, as_scheme, fluid_scene, scheme_resolution, lattice, tank_walls
 
 __all__ = ["dam_break", "hydrostatic_tank"]
 
@@ -33,9 +33,9 @@ def _scheme_defaults(scheme, alpha, nu):
 def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width: float = 0.5,
               column_height: float = 1.0, tank_length: float = 2.0, tank_width: float = 1.0,
               tank_height: float | None = None, periodic_y: bool = False,
-              scheme: FluidScheme | str = WCSPH(), h_factor: float = 1.3, c0: float | None = None, alpha: float | None = None, nu: float | None = None,
-              delta: float = 0.1, wall_viscosity: float = 1.0, skin_factor: float = 0.3, rebuild_every: int = 8,
-              cfl: float = 0.25) -> Scene:
+              scheme: FluidScheme | str = WCSPH(), h_factor: float | None = None, c0: float | None = None, alpha: float | None = None, nu: float | None = None,
+              delta: float = 0.1, wall_viscosity: float = 1.0, skin_factor: float | None = None, rebuild_every: int = 8,
+              cfl: float | None = None) -> Scene:
     """A water column collapsing in a tank (3D; with ``periodic_y`` a 2D slab).
 
     The column occupies ``[0, column_length] x [0, column_width] x [0, column_height]`` in the
@@ -52,11 +52,13 @@ def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width:
         alpha / nu: artificial viscosity [-] / kinematic viscosity [m^2/s]; defaults depend on
             the scheme (WCSPH 0.02 / 1e-6; seed 0 / 1e-3, as its Eq 18 is its only dissipation).
         wall_viscosity: factor on the viscous term towards wall particles (0 = free-slip walls).
-        h_factor: smoothing length / dx. skin_factor: Verlet skin / dx (default 0.3: with the
-            driver's displacement-triggered rebuilds the thinner lists, K 120 instead of 160 at
-            0.6, outweigh the more frequent rebuilds, ``experiments/bench_skin.py``; a rollout
-            without the trigger, e.g. a vmapped ensemble, needs a skin covering ``rebuild_every``
-            steps of motion).
+        h_factor: smoothing length / dx; cfl: the CFL number of the time step; skin_factor:
+            Verlet skin / dx. None: the scheme's (``scheme_resolution``): 1.3, 0.25 and 0.3 with
+            WCSPH (with the driver's displacement-triggered rebuilds the thinner lists, K 120
+            instead of 160 at skin 0.6, outweigh the more frequent rebuilds,
+            ``experiments/bench_skin.py``), 1.0, 0.4 and 0.05 with DFSPH (rebuilt every step at
+            its time step). A rollout without the trigger, e.g. a vmapped ensemble, needs a skin
+            covering ``rebuild_every`` steps of motion.
     """
     dx = _positive("dam_break: dx", dx)
     for name, val in (("column_length", column_length), ("column_width", column_width),
@@ -72,6 +74,7 @@ def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width:
         raise ValueError(f"dam_break: dx = {dx} m is too coarse for the column; use dx <= {min(column_length, column_width, column_height) / 4:.4g} m")
     tank_height = 1.5 * column_height if tank_height is None else _positive("dam_break: tank_height", tank_height)
     scheme, alpha, nu = _scheme_defaults(scheme, alpha, nu)
+    h_factor, cfl, skin_factor = scheme_resolution(scheme, h_factor, cfl, skin_factor)
     c0 = 10.0 * math.sqrt(2 * GRAVITY * column_height) if c0 is None else _positive("dam_break: c0", c0)
     layers = Resolution(dx, h_factor).wall_layers
     periodic = (False, bool(periodic_y), False)
@@ -91,10 +94,10 @@ def dam_break(*, dx: float = 0.5 / 14, column_length: float = 0.5, column_width:
 
 
 def hydrostatic_tank(*, dx: float = 0.02, length: float = 0.2, width: float = 0.2, depth: float = 0.2,
-                     periodic_xy: bool = False, scheme: FluidScheme | str = WCSPH(), h_factor: float = 1.3,
+                     periodic_xy: bool = False, scheme: FluidScheme | str = WCSPH(), h_factor: float | None = None,
                      c0: float | None = None, alpha: float | None = None, nu: float | None = None,
-                     delta: float = 0.1, wall_viscosity: float = 1.0, skin_factor: float = 0.3, rebuild_every: int = 8,
-                     cfl: float = 0.25) -> Scene:
+                     delta: float = 0.1, wall_viscosity: float = 1.0, skin_factor: float | None = None, rebuild_every: int = 8,
+                     cfl: float | None = None) -> Scene:
     """Still water of ``depth`` [m] in a closed-bottom tank ``length x width`` [m] (open top).
 
     Initial densities follow the hydrostatic pressure ``rho0 g (depth - z)`` (WCSPH).
@@ -106,6 +109,7 @@ def hydrostatic_tank(*, dx: float = 0.02, length: float = 0.2, width: float = 0.
     if depth < 3 * dx:
         raise ValueError(f"hydrostatic_tank: depth ({depth} m) must hold at least 3 particle layers; use dx <= {depth / 3:.4g} m")
     scheme, alpha, nu = _scheme_defaults(scheme, alpha, nu)
+    h_factor, cfl, skin_factor = scheme_resolution(scheme, h_factor, cfl, skin_factor)
     c0 = 10.0 * math.sqrt(2 * GRAVITY * depth) if c0 is None else _positive("hydrostatic_tank: c0", c0)
     layers = Resolution(dx, h_factor).wall_layers
     periodic = (bool(periodic_xy), bool(periodic_xy), False)

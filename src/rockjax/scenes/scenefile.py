@@ -82,8 +82,8 @@ Form (b): a general scene
     [sph]                              # the water (needed with [[water]])
     dx = 0.02                          # particle spacing, m
     scheme = "wcsph"                   # or "seed"; c0 [m/s] (default 10 x the largest expected
-    # speed), h_factor, alpha, nu [m^2/s], delta, wall_viscosity (0 = free-slip walls and
-    # blocks), skin_factor (Verlet skin / dx; default 0.3, 0.6 with moving blocks),
+    # speed), h_factor and cfl (default: the scheme's), alpha, nu [m^2/s], delta, wall_viscosity (0 = free-slip walls and
+    # blocks), skin_factor (Verlet skin / dx; default the scheme's, 0.3 with WCSPH, 0.6 with moving blocks),
     # rebuild_every, cfl; kernel,
     # viscosity, wall_model, density_diffusion (water-only scenes; with blocks the defaults hold);
     # seed_gradient ("spiky", the paper's, or "poly6": the seed scheme's pressure-gradient kernel)
@@ -132,7 +132,7 @@ import numpy as np
 from ..sph import schemes as _schemes
 from ..sph.terms import names as _term_names
 from ..types import Coupling
-from .base import GRAVITY, Resolution, Scene, check_lattice_size, fluid_scene, lattice
+from .base import GRAVITY, Resolution, Scene, check_lattice_size, fluid_scene, lattice, scheme_resolution
 
 try:  # Python >= 3.11
     import tomllib as _toml
@@ -334,16 +334,16 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
     "run": {"t_end": _num(unit="s", **_POS)},
     "sph": {"dx": _num(unit="m", **_POS, hint="the particle spacing, e.g. dx = 0.02"),
             "scheme": _choice(tuple(_term_names("scheme")), "wcsph"), "c0": _num(unit="m/s", **_POS),
-            "h_factor": _num(default=1.3, lo=0.5, hi=3.0), "alpha": _num(**_NONNEG),
+            "h_factor": _num(lo=0.5, hi=3.0), "alpha": _num(**_NONNEG),
             "nu": _num(unit="m^2/s", **_NONNEG), "delta": _num(default=0.1, **_NONNEG),
             "wall_viscosity": _num(default=1.0, **_NONNEG),
             "skin_factor": _num(**_NONNEG), "rebuild_every": _num("int", 8, lo=1),
-            "cfl": _num(default=0.25, lo=0.0, lo_open=True, hi=1.0),
-            "kernel": _choice(tuple(_term_names("kernel")), "wendland_c2"),
-            "viscosity": _choice(tuple(_term_names("viscosity")), "artificial"),
-            "wall_model": _choice(tuple(_term_names("walls")), "adami"),
-            "density_diffusion": _choice(tuple(_term_names("diffusion")), "fourtakas"),
-            "seed_gradient": _choice(tuple(_term_names("seed_gradient")), "spiky")},
+            "cfl": _num(lo=0.0, lo_open=True, hi=1.0),
+            "kernel": _choice(tuple(_term_names("kernel"))),
+            "viscosity": _choice(tuple(_term_names("viscosity"))),
+            "wall_model": _choice(tuple(_term_names("walls"))),
+            "density_diffusion": _choice(tuple(_term_names("diffusion"))),
+            "seed_gradient": _choice(tuple(_term_names("seed_gradient")))},
     "coupling": {"method": _choice(("penalty", "boundary_particles", "boundary_integral"), "penalty"),
                  "stiffness": _num(unit="1/s^2", **_POS), "damping": _num(unit="1/s", **_NONNEG),
                  "interaction_distance": _num(unit="m", **_POS), "guard": _Key("bool", True),
@@ -1017,12 +1017,15 @@ def parse(ctx: _Ctx, doc: dict, overrides: dict) -> SceneSpec:
         from .fluid import _scheme_defaults
 
         scheme, alpha, nu = _scheme_defaults(_fluid_scheme(ctx, sph), alpha, nu)
+        h_factor, cfl, _ = scheme_resolution(scheme, sph["h_factor"], sph["cfl"])
+    else:
+        h_factor, cfl = sph["h_factor"] or 1.3, sph["cfl"] or 0.25
     return SceneSpec(
         name=scene_t["name"] or "scene", description=scene_t["description"], still_level=scene_t["still_level"],
         domain=_fields(DomainSpec, domain) if domain is not None else None,
         waters=tuple(_fields(WaterSpec, w, path=("water", i)) for i, w in enumerate(waters)),
         fixed=fixed, blocks=blocks, materials=_fields(MaterialsSpec, mat),
-        sph=_fields(SphSpec, {**sph, "scheme": scheme, "alpha": alpha, "nu": nu}),
+        sph=_fields(SphSpec, {**sph, "scheme": scheme, "alpha": alpha, "nu": nu, "h_factor": h_factor, "cfl": cfl}),
         coupling=_fields(CouplingSpec, {**cpl, "method": Coupling(cpl["method"])}),
         gauges=tuple(_fields(GaugeSpec, g) for g in gauges),
         runup=_fields(RunupSpec, runup) if runup is not None else None, where=ctx, rock_mass=rock_sizes)
@@ -1266,7 +1269,8 @@ def build(spec: SceneSpec) -> Scene:
     common = dict(h_factor=sph.h_factor, alpha=sph.alpha, nu=sph.nu, delta=sph.delta,
                   wall_viscosity=sph.wall_viscosity,
                   # the builders' defaults: 0.3 dx for water only, 0.6 dx with moving blocks
-                  skin_factor=sph.skin_factor if sph.skin_factor is not None else (0.6 if moving else 0.3),
+                  skin_factor=sph.skin_factor if sph.skin_factor is not None else (
+                      0.6 if moving else sph.scheme.default_skin_factor),
                   rebuild_every=sph.rebuild_every, cfl=sph.cfl)
     if not moving:
         return fluid_scene(name=spec.name, dx=dx, fluid_x=fluid_x, wall_x=wall_x, domain_lo=dom_lo,
@@ -1309,7 +1313,7 @@ _TERM_KEYS = {"kernel": "kernel", "viscosity": "viscosity", "wall_model": "walls
 def _fluid_scheme(ctx, sph: dict):
     """The fluid scheme object of an ``[sph]`` table: the scheme by name with the terms whose keys
     are given (a term that does not apply to the scheme is refused, naming its key)."""
-    terms = {slot: sph[key] for key, slot in _TERM_KEYS.items() if sph[key] != _SCHEMA["sph"][key].default}
+    terms = {slot: sph[key] for key, slot in _TERM_KEYS.items() if sph[key] is not None}
     for key, slot in _TERM_KEYS.items():
         if slot in terms:
             try:

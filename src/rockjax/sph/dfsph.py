@@ -28,7 +28,8 @@ relaxation must stay below ``2 / lambda_max`` of ``diag(1/S) D a``: lambda_max =
 C2 at h = 1.3 dx (2.8 for the cubic spline at h = dx), so the default is 0.4; SPlisHSPlasH's
 increments (``max(r, 0)`` at relaxation 1, restarted at half the last pressure) hide that
 divergence by never lowering a pressure. A solve stops when the mean ``|r|`` over the fluid rows
-that carry pressure or are compressed is at or below its tolerance (after ``min_iterations``), or
+that carry pressure or are compressed is at or below its tolerance (after ``min_iterations``, the
+divergence solve's ``min_divergence_iterations``), or
 at ``max_iterations``; each starts from ``warm_start`` times the previous step's pressure
 (``Particles.solver``).
 
@@ -264,8 +265,7 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     pr = pairs(P.x, kind, nbrs.idx, config)  # the step's one pair geometry
     geo = geometry(P.x, kind, P.vol, nbrs, params, config, pr=pr)
     rho = _densities(P, geo, params, nf)
-    loop = dict(min_iterations=scheme.min_iterations, max_iterations=scheme.max_iterations, fixed=scheme.iterations,
-                relaxation=scheme.relaxation, dt=dt)
+    loop = dict(max_iterations=scheme.max_iterations, fixed=scheme.iterations, relaxation=scheme.relaxation, dt=dt)
 
     v0 = P.v
     v = v0
@@ -275,14 +275,14 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
         few = geo.count < scheme.min_neighbours
         sv = _solve(geo, v, scheme.warm_start * solver[:nf, 1],
                     lambda v: jnp.where(few, 0.0, dt * divergence(geo, v)), fluid_row,
-                    tolerance=scheme.divergence_tolerance, **loop)
+                    tolerance=scheme.divergence_tolerance, min_iterations=scheme.min_divergence_iterations, **loop)
         v = sv.v
 
     a_np = _non_pressure_acceleration(pr, P.x, v, rho, P.vol, kind, nbrs, params, config)
     v_visc = v
     v = v.at[:nf].add(dt * a_np)
     sd = _solve(geo, v, scheme.warm_start * solver[:nf, 0], lambda v: geo.rho + dt * divergence(geo, v) - 1.0,
-                fluid_row, tolerance=scheme.tolerance, **loop)
+                fluid_row, tolerance=scheme.tolerance, min_iterations=scheme.min_iterations, **loop)
     v = jnp.where(fluid[:, None], sd.v, P.v)
     x_new = wrap_positions(jnp.where(fluid[:, None], P.x + dt * v, P.x), config.grid)
     kappa = sd.kappa + sv.kappa

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import ClassVar
 
 import jax.numpy as jnp
 
@@ -145,9 +146,11 @@ class Kernel(Term):
     ``w(r, h)`` [1/m^3] and ``f(r, h) = (dW/dr) / r`` [1/m^5] for distances ``r`` [m] (any shape);
     ``plane(s, h)`` the closed-form plane integrals ``(A, G)`` that the semi-analytical wall term
     needs (``plane_integrals``). Support radius ``SUPPORT_FACTOR * h`` for every kernel here.
+    ``h_factor``: the h / dx the kernel is meant for (what ``DFSPH`` scenes use when given none).
     """
 
     family = "kernel"
+    h_factor: ClassVar[float] = 1.3
 
     def w(self, r, h):
         raise NotImplementedError
@@ -177,9 +180,11 @@ class WendlandC2(Kernel):
 
 @dataclasses.dataclass(frozen=True)
 class CubicSpline(Kernel):
-    """The M4 cubic spline (Monaghan & Lattanzio 1985)."""
+    """The M4 cubic spline (Monaghan & Lattanzio 1985); meant for h = dx (support 2 dx, ~33
+    neighbours in 3D, as SPlisHSPlasH's cubic kernel of support 4 particle radii)."""
 
     name = "cubic_spline"
+    h_factor = 1.0
 
     def w(self, r, h):
         return cubic_spline(r, h)

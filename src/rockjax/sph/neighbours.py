@@ -587,7 +587,11 @@ def rebuild(particles: Particles, config: Config):
     """Sort the particles by cell and build a fresh list. Returns ``(particles, NeighbourList, status)``."""
     particles = sort_by_cell(particles, config)
     idx, status, max_count, run = build(particles.x, particles.kind, config)
-    row, col, count, wall_status = wall_pairs(idx, particles.kind, config)
+    if config.needs_wall_pairs:
+        row, col, count, wall_status = wall_pairs(idx, particles.kind, config)
+    else:  # no sum reads the (fluid, wall) pairs: the list stays empty (kept at its configured length)
+        row = col = jnp.zeros((config.wall_pair_capacity,), jnp.int32)
+        count, wall_status = jnp.zeros((), jnp.int32), jnp.zeros((), jnp.int32)
     if config.has_body_pairs:
         brow, bcol, bcount, body_status = body_pairs(row, col, count, particles.body, config)
     else:  # no sub-list (kept at its configured length)

@@ -35,6 +35,9 @@ class Viscosity(Term):
 
     family = "viscosity"
     uses_nu: ClassVar[bool] = False
+    #: ``values`` sums over the list with ``pair_sum``, whose reverse pass reads the flat (fluid,
+    #: wall) pair list (``FluidScheme.uses_wall_pairs``).
+    uses_wall_pairs: ClassVar[bool] = False
 
     def values(self, x, v, rho, vol, kind, nbrs, params, config) -> dict:
         """Per-particle fields [N] this term's ``pair`` reads as ``ri[key]`` / ``cj[key]``, computed
@@ -127,6 +130,7 @@ class LaminarSPS(Viscosity):
 
     name = "sps"
     uses_nu = True
+    uses_wall_pairs = True
     smagorinsky: float = 0.12
     blin: float = 0.0066
 
