@@ -122,10 +122,15 @@ def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None,
         t0 = time.perf_counter()
         state = jax.jit(lambda s, p: prime(s, p, config))(state0, params)
         one = scheduled_step(config, period=period)
-        chunk = jax.jit(lambda s, p: jax.lax.scan(lambda s, _: (one(s, p), None), s, None, length=steps)[0])
+        def body(s, p):  # the sweeps of each step's solves ride along (DFSPH; nothing for WCSPH)
+            s = one(s, p)
+            solver = s.particles.solver
+            return s, (None if solver is None else solver[0, 4:6])
+
+        chunk = jax.jit(lambda s, p: jax.lax.scan(lambda s, _: body(s, p), s, None, length=steps))
         chunk_c = chunk.lower(state, params).compile()
         compile_s += time.perf_counter() - t0
-        out = jax.block_until_ready(chunk_c(state, params))
+        out, sweeps = jax.block_until_ready(chunk_c(state, params))
         bits = int(out.status) | int(state.status)
         if bits & ~int(rj.Status.growable()):
             raise RuntimeError(f"rockjax {size}/{scheme}: fatal status {rj.Status.describe(bits)}")
@@ -148,6 +153,9 @@ def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None,
     i = min(range(reps), key=lambda j: walls[j])
     wall, cpu = walls[i], cpus[i]
     nf = counts["fluid"]
+    solver = {} if sweeps is None else {  # mean sweeps per step, as the peer's dfsph_iters / dfsph_iters_v
+        "dfsph_iters": round(float(sweeps[:, 0].mean()), 3), "dfsph_iters_v": round(float(sweeps[:, 1].mean()), 3),
+        "kernel": config.scheme.kernel.name, "h_dx": round(float(params.fluid.h) / dx, 3)}
     return {"code": "rockjax", "version": rj.__version__, "scheme": scheme, "case": "dambreak3d_throughput",
             "size": size, "n_fluid": nf, "n_wall": counts["wall"], "dx": dx, "dt": config.dt, "steps": steps,
             "t_window_s": round(steps * config.dt, 6), "dtype": str(state.particles.x.dtype),
@@ -158,7 +166,7 @@ def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None,
             "sim_s_per_wall_s": round(steps * config.dt / wall, 6),
             "compile_s": round(compile_s, 2), "setup_s": round(setup_s, 2), "reps": reps,
             "foreign_cpu": foreign, "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
-            "jax": jax.__version__, "backend": jax.default_backend(), "source": "measured",
+            "jax": jax.__version__, "backend": jax.default_backend(), "source": "measured", **solver,
             **_device_memory(jax)}
 
 
@@ -233,6 +241,8 @@ def main(argv=None):
     ap.add_argument("--run-peers", action="store_true", help="run the peers now (needs $PEER_VENV)")
     ap.add_argument("--peer-results", default=DEFAULT_PEER_RESULTS, help="recorded peer JSONL (fallback)")
     ap.add_argument("--peer-timeout", type=float, default=600)
+    ap.add_argument("--peer-cases", nargs="+", default=None, metavar="CODE:SCHEME",
+                    help="only these peer cases, e.g. splishsplash:dfsph (default: all)")
     ap.add_argument("--out", default=None, help="also append the JSON lines to this file")
     ap.add_argument("--scaling", action="store_true",
                     help="rockjax only: throughput and peak memory vs size (up to 300k), --blocks list blocks each")
@@ -295,6 +305,8 @@ def main(argv=None):
             ours.append(rec)
         peers = []
         for code, scheme, script in PEER_CASES:
+            if args.peer_cases and f"{code}:{scheme}" not in args.peer_cases:
+                continue
             if run_peers:
                 rec = run_peer(code, scheme, script, size, timeout=args.peer_timeout)
             else:

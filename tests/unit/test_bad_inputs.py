@@ -205,6 +205,8 @@ CASES = [
     ("dfsph-relaxation-above-1", lambda t: rj.DFSPH(relaxation=1.0), r"DFSPH: relaxation must be in \(0, 1\)"),
     ("dfsph-iterations-zero", lambda t: rj.DFSPH(iterations=0), r"DFSPH: iterations must be None"),
     ("dfsph-tolerance-negative", lambda t: rj.DFSPH(tolerance=-1e-3), r"DFSPH: tolerance must be a positive"),
+    ("dfsph-min-divergence-iterations-zero", lambda t: rj.DFSPH(min_divergence_iterations=0),
+     r"DFSPH: need an integer 1 <= min_divergence_iterations"),
     # ---- time ----------------------------------------------------------------------------------
     ("t-end-nan", lambda t: rj.simulate(_incline(), t_end=math.nan), r"t_end must be a positive finite"),
     ("t-end-inf", lambda t: rj.simulate(_incline(), t_end=math.inf), r"t_end must be a positive finite"),

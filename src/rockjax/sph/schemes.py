@@ -209,7 +209,11 @@ class DFSPH(FluidScheme):
     ``kernel``: the cubic spline by default, at the h / dx of ``Kernel.h_factor`` (1.0: support 2 dx,
     as SPlisHSPlasH's) where a scene builder is given no ``h_factor``; the scene builders' CFL
     default is ``default_cfl`` = 0.4 (the velocity CFL ``0.4 dx / v``, as the peer's scenes), their
-    Verlet skin 0.05 dx (``default_skin_factor``).
+    Verlet skin 0.05 dx (``default_skin_factor``). ``viscosity``: Monaghan's artificial viscosity by
+    default, with ``Params.fluid.alpha`` and the scene's speed scale ``c0`` (the dissipation WCSPH
+    scenes carry, an effective nu ~ alpha c0 h / 10, 3e-3 m^2/s in the 3D dam break; the peer's
+    scenes run nu = 0.01): with water's nu alone (``Laminar()``) the 3D dam break's impact on the
+    far wall throws particles faster than h per step at dt = 0.4 dx / v.
     Against Wendland C2 at h = 1.3 dx it sums over 2.2x fewer neighbours, for the same surge front
     (``experiments/sph_time_vs_error.py``).
 
@@ -235,7 +239,7 @@ class DFSPH(FluidScheme):
     #: whatever the skin (its sums use the step's start only): a thin skin keeps the list short.
     default_skin_factor = 0.05
     kernel: Kernel = CubicSpline()
-    viscosity: Viscosity = Laminar()
+    viscosity: Viscosity = Artificial()
     tolerance: float = 1e-3
     divergence_tolerance: float = 1e-3
     min_iterations: int = 2
