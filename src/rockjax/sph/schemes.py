@@ -26,7 +26,7 @@ import numpy as np
 from .diffusion import DensityDiffusion, Fourtakas
 from .kernels import CubicSpline, Kernel, SeedGradientKernel, SpikyGradient, WendlandC2
 from .terms import Term, by_name, names
-from .viscosity import Artificial, Laminar, Viscosity
+from .viscosity import Artificial, Viscosity
 from .walls import Adami, WallModel
 
 __all__ = ["FluidScheme", "WCSPH", "DFSPH", "SeedScheme", "from_names"]
