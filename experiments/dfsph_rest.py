@@ -61,7 +61,8 @@ def run_rockjax(scheme_name: str, nu: float) -> dict:
             p_ratio.append(float(p[deep].mean() / (1000 * 9.81 * (surface - z[deep])).mean()))
             if P.solver is not None:
                 sweeps.append(np.asarray(P.solver)[0, 4:6])
-    rec = {"code": "rockjax", "scheme": scheme_name, "nu": nu, "dt": config.dt, "steps": n, "status": int(state.status),
+    rec = {"code": "rockjax", "scheme": scheme_name, "kernel": config.scheme.kernel.name,
+           "h_dx": round(float(sc.params.fluid.h) / DX, 3), "nu": nu, "dt": config.dt, "steps": n, "status": int(state.status),
            "v_rms": {str(t): round(v, 5) for t, v in v_rms.items()},
            "p_ratio_mean_last_half": round(float(np.mean(p_ratio)), 4),
            "p_ratio_sd_last_half": round(float(np.std(p_ratio)), 4)}

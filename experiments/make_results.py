@@ -280,7 +280,7 @@ def sec_time_vs_error(doc: Doc):
           "periodic slab of its 3D code; peers run 2D. " + machine)
     rows = []
     for r in ours:
-        rows.append(["rockjax", r.get("scheme"), r.get("dx"), r.get("n_fluid"), r.get("steps"), r.get("wall_s"),
+        rows.append(["rockjax", r.get("label", r.get("scheme")), r.get("dx"), r.get("n_fluid"), r.get("steps"), r.get("wall_s"),
                      r.get("front_rms_rel_err"), r.get("front_rms_rel_err_best_shift"), r.get("best_shift_T"),
                      f"load {r.get('load_before')}"])
     for r in sorted(peers, key=lambda r: (r["code"], r["scheme"], -r["dx"])):
@@ -1425,22 +1425,38 @@ def sec_restitution_phase(doc: Doc):
 
 def sec_dfsph(doc: Doc):
     doc.h("DFSPH: the incompressible scheme against the peer's")
-    recs = doc.records("compare_peers_dfsph.jsonl", "python experiments/compare_peers.py --sizes 5k 20k --schemes dfsph "
-                       "wcsph --out experiments/results/compare_peers_dfsph.jsonl")
+    recs = doc.records("compare_peers_dfsph.jsonl", "PEER_VENV=... python experiments/compare_peers.py --sizes 5k 20k 80k "
+                       "--schemes dfsph --run-peers --peer-cases splishsplash:dfsph "
+                       "--out experiments/results/compare_peers_dfsph.jsonl")
     if recs is not None:
-        ours = {(r["size"], r["scheme"]): r for r in recs if r.get("code") == "rockjax" and "error" not in r}
+        ours = [r for r in recs if r.get("code") == "rockjax" and "error" not in r]
+        peers = [r for r in recs if r.get("code") == "splishsplash" and r.get("scheme") == "dfsph" and "error" not in r]
         ratios = [r for r in recs if r.get("kind") == "ratio" and r.get("peer_scheme") == "dfsph"]
-        doc.p("3D dam break of `compare_peers.py` (the peers' geometry and particle counts), rockjax `DFSPH()` "
-              "(dt = 0.25 h / (c0 / 10), the velocity CFL; SPlisHSPlasH DFSPH: 0.4 dx / sqrt(2 g H)) and `WCSPH()` "
-              "timed in the same run; the DFSPH window is the peer's (1 s / 0.33 s at 5k / 20k) capped at 0.8 s "
-              "(later the splash leaves rockjax's closed 3.5 m domain). Peer figures are the recorded ones.")
-        rows = [[r["size"], r["scheme"], r.get("steps"), r.get("dt"), r.get("wall_s"), r.get("particle_steps_per_s"),
-                 r.get("sim_s_per_wall_s"), r.get("foreign_cpu")] for r in ours.values()]
-        doc.p(table(["size", "scheme", "steps", "dt [s]", "wall s", "fluid p-steps/s", "sim-s / wall-s",
-                     "foreign cpu"], rows))
-        rows = [[r["size"], r["rockjax_scheme"], r["particle_steps_ratio"], r["sim_time_ratio"]] for r in ratios]
+        doc.p("3D dam break of `compare_peers.py` (the peers' geometry and particle counts). rockjax rows in run "
+              "order: the first (no kernel column) ran `DFSPH()` with Wendland C2 at h = 1.3 dx, three wall layers, "
+              "dt = 0.25 h / (c0 / 10) and water's viscosity; the later ones the defaults since (cubic spline at "
+              "h = dx, two wall layers, dt = 0.4 dx / (c0 / 10) = the peer's 0.4 dx / sqrt(2 g H), artificial "
+              "viscosity, skin 0.05 dx). The window is the peer's (1 s / 0.33 s / 0.08 s at 5k / 20k / 80k), "
+              "rockjax's capped at 0.8 s (later the splash leaves its closed 3.5 m domain). Sweeps: mean per step "
+              "(density, divergence), as the peer's iteration counts.")
+        rows = [[r.get("date"), r["size"], r["scheme"], r.get("kernel"), r.get("h_dx"), r.get("n_wall"), r.get("steps"),
+                 r.get("dt"), r.get("wall_s"), r.get("particle_steps_per_s"), r.get("sim_s_per_wall_s"),
+                 r.get("dfsph_iters"), r.get("dfsph_iters_v")] for r in ours]
+        doc.p(table(["date", "size", "scheme", "kernel", "h/dx", "walls", "steps", "dt [s]", "wall s", "fluid p-steps/s",
+                     "sim-s / wall-s", "sweeps density", "sweeps divergence"], rows))
+        rows = [[r.get("date"), r["size"], r.get("n_wall"), r.get("steps"), r.get("wall_s"), r.get("sim_s_per_wall_s"),
+                 (r.get("internal_timing") or {}).get("simstep_ms"), (r.get("internal_timing") or {}).get("nsearch_ms"),
+                 (r.get("internal_timing") or {}).get("pressure_solve_ms"),
+                 (r.get("internal_timing") or {}).get("dfsph_iters"), (r.get("internal_timing") or {}).get("dfsph_iters_v"),
+                 r.get("source")] for r in peers]
+        doc.p("SPlisHSPlasH 2.19 DFSPH (Akinci walls, one layer; its viscosity 0.01 m^2/s; maxError 0.05 %), with its "
+              "own per-step timings [ms] and mean iterations:\n\n"
+              + table(["date", "size", "walls", "steps", "wall s", "sim-s / wall-s", "step ms", "search ms",
+                       "pressure solve ms", "iters density", "iters divergence", "source"], rows))
+        rows = [[r.get("date"), r["size"], r["rockjax_scheme"], r["particle_steps_ratio"], r["sim_time_ratio"],
+                 r.get("peer_source")] for r in ratios]
         doc.p("Ratios rockjax / SPlisHSPlasH DFSPH (issue 49 target: sim-time ratio >= 1.0 for DFSPH):\n\n"
-              + table(["size", "rockjax scheme", "particle-steps/s ratio", "sim-time ratio"], rows))
+              + table(["date", "size", "rockjax scheme", "particle-steps/s ratio", "sim-time ratio", "peer"], rows))
     rest = doc.records("dfsph_rest.jsonl", "python experiments/dfsph_rest.py --peer-python PEER_VENV/bin/python "
                        "--out experiments/results/dfsph_rest.jsonl")
     if rest is not None:
@@ -1448,12 +1464,14 @@ def sec_dfsph(doc: Doc):
               "on the lattice): rms particle speed [m/s] at the times given, rockjax with the laminar viscosity nu, "
               "SPlisHSPlasH 2.19 DFSPH with its Standard viscosity = nu; for rockjax also the pressure at depths "
               "> 0.05 m over rho0 g d (mean and sd over the steps of the last half second) and the mean sweeps "
-              "per step (density, divergence).")
+              "per step (density, divergence). rockjax DFSPH rows without a kernel ran Wendland C2 at h = 1.3 dx and "
+              "dt = 0.25 h / (c0 / 10); the later ones the cubic spline at h = dx and dt = 0.4 dx / (c0 / 10).")
         times = sorted({t for r in rest for t in r.get("v_rms", {})}, key=float)
-        rows = [[r.get("code"), r.get("scheme"), r.get("nu"), r.get("dt")] + [r.get("v_rms", {}).get(t) for t in times]
+        rows = [[r.get("code"), r.get("scheme"), r.get("kernel"), r.get("h_dx"), r.get("nu"), r.get("dt")]
+                + [r.get("v_rms", {}).get(t) for t in times]
                 + [r.get("p_ratio_mean_last_half"), r.get("p_ratio_sd_last_half"), r.get("sweeps_density_divergence"),
                    r.get("date")] for r in rest if "error" not in r]
-        doc.p(table(["code", "scheme", "nu m^2/s", "dt s"] + [f"v rms {t} s" for t in times]
+        doc.p(table(["code", "scheme", "kernel", "h/dx", "nu m^2/s", "dt s"] + [f"v rms {t} s" for t in times]
                     + ["p / rho g d", "sd", "sweeps", "date"], rows))
 
 

@@ -37,12 +37,12 @@ def _cpu() -> float:
 
 
 def run(scheme: str, res: int, *, kernel: str | None = None, h_factor: float | None = None,
-        cfl: float | None = None) -> dict:
+        cfl: float | None = None, viscosity: str | None = None) -> dict:
     import rockjax as rj
     from rockjax.validation import dam_break_2d, front_error, front_history, martin_moyce_n2_2
 
     kw = {k: v for k, v in (("h_factor", h_factor), ("cfl", cfl)) if v is not None}
-    scene = dam_break_2d(a=A, resolution=res, scheme=rj.sph.from_names(scheme, kernel=kernel), **kw)
+    scene = dam_break_2d(a=A, resolution=res, scheme=rj.sph.from_names(scheme, kernel=kernel, viscosity=viscosity), **kw)
     t_end = 3.05 / math.sqrt(2 * 9.81 / A)
     load0 = os.getloadavg()[0]
     w0 = time.perf_counter()
@@ -61,8 +61,10 @@ def run(scheme: str, res: int, *, kernel: str | None = None, h_factor: float | N
     errs = [front_error(T, Z, Tr, Zr, shift=s) for s in shifts]
     k = int(np.argmin(errs))
     cfg = result.scene.config
-    return {"case": "dambreak2d_mm_n2_2", "code": "rockjax", "scheme": scheme, "label": _label(scheme, kernel, h_factor, cfl),
-            "kernel": cfg.scheme.kernel.name, "h_dx": round(float(scene.params.fluid.h) * res / A, 3),
+    h_dx = round(float(scene.params.fluid.h) * res / A, 3)
+    return {"case": "dambreak2d_mm_n2_2", "code": "rockjax", "scheme": scheme,
+            "label": _label(scheme, cfg.scheme.kernel.name, h_dx, cfl, cfg.scheme.viscosity.name),
+            "kernel": cfg.scheme.kernel.name, "h_dx": h_dx, "viscosity": cfg.scheme.viscosity.name,
             "dt": cfg.dt, "a_over_dx": res, "dx": A / res,
             "n_fluid": scene.counts()["fluid"], "n_wall": scene.counts()["wall"], "steps": result.stats["steps"],
             "regrows": result.stats["regrows"], "wall_s": round(wall, 2), "wall_s_with_compile": round(wall_cold, 2),
@@ -74,10 +76,10 @@ def run(scheme: str, res: int, *, kernel: str | None = None, h_factor: float | N
             "load_before": round(load0, 2), "load_after": round(os.getloadavg()[0], 2)}
 
 
-def _label(scheme: str, kernel, h_factor, cfl) -> str:
-    """The plot's name of a rockjax setting: the scheme, and what was changed from its defaults."""
-    extra = [f"{k}={v}" for k, v in (("kernel", kernel), ("h/dx", h_factor), ("cfl", cfl)) if v is not None]
-    return scheme + (" (" + ", ".join(extra) + ")" if extra else "")
+def _label(scheme: str, kernel: str, h_dx: float, cfl, viscosity: str) -> str:
+    """The plot's name of a rockjax setting: the scheme, its kernel and h / dx, its viscous term,
+    and a CFL number given on the command line."""
+    return f"{scheme} ({kernel}, h/dx {h_dx:g}, {viscosity}" + (f", cfl {cfl:g})" if cfl is not None else ")")
 
 
 def _peers(results: pathlib.Path) -> list[dict]:
@@ -132,6 +134,7 @@ def main(argv=None):
     ap.add_argument("--kernel", default=None, help="the schemes' kernel (their default if omitted)")
     ap.add_argument("--h-factor", type=float, default=None, help="h / dx (the scene's default if omitted)")
     ap.add_argument("--cfl", type=float, default=None, help="the scene's CFL number (its default if omitted)")
+    ap.add_argument("--viscosity", default=None, help="the schemes' viscous term (their default if omitted)")
     ap.add_argument("--plot-only", action="store_true", help="re-plot the records in OUT.jsonl")
     args = ap.parse_args(argv)
     peer_dir = pathlib.Path(__file__).resolve().parent / "results"
@@ -141,7 +144,7 @@ def main(argv=None):
     else:
         for res in args.res:
             for scheme in args.schemes:
-                rec = run(scheme, res, kernel=args.kernel, h_factor=args.h_factor, cfl=args.cfl)
+                rec = run(scheme, res, kernel=args.kernel, h_factor=args.h_factor, cfl=args.cfl, viscosity=args.viscosity)
                 print(json.dumps(rec), flush=True)
                 records.append(rec)
                 if args.out:

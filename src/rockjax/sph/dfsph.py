@@ -43,9 +43,7 @@ CFL (``DFSPH.stable_dt``); a step whose fastest particle moves more than ``0.5 h
 ``Status.UNSTABLE_DT``, and a solve ending above its tolerance at ``max_iterations`` sets
 ``Status.SOLVER_NOT_CONVERGED`` (the driver stops with the step and the advice).
 
-At rest, DFSPH water started on a lattice moves as much as the peer's: a 0.2 m tank at dx 0.02
-keeps ~0.1 m/s of particle noise after 1 s with water's viscosity (SPlisHSPlasH 0.17 m/s); a
-viscosity damps it (RESULTS.md, "DFSPH").
+Water at rest against the peer's, and the speed of a step against SPlisHSPlasH's: RESULTS.md, "DFSPH".
 """
 
 from __future__ import annotations
