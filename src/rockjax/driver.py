@@ -662,11 +662,12 @@ def check_block_dt(config: Config, params, state: State) -> None:
     from . import blocks
 
     limit = float(blocks.stable_dt(config.blocks, params.blocks, state.blocks))
-    if config.dt > limit * (1 + 1e-6):
+    if config.block_dt > limit * (1 + 1e-6):
         raise ValueError(
-            f"Config.dt = {config.dt:.4g} s exceeds the block stability limit {limit:.4g} s (seed Eq 8: stiffest "
-            "contact, lightest block) for these Params; use a smaller dt (Config.replace(dt=...)), a lower "
-            "Params.blocks.normal_stiffness or heavier blocks.")
+            f"Config.dt = {config.dt:.4g} s over block_substeps = {config.block_substeps} ({config.block_dt:.4g} s) "
+            f"exceeds the block stability limit {limit:.4g} s "
+            "(seed Eq 8: stiffest contact, lightest block) for these Params; use a smaller dt (Config.replace(dt=...)), "
+            "more Config.block_substeps, a lower Params.blocks.normal_stiffness or heavier blocks.")
 
 
 def _advice(bits: int) -> str:

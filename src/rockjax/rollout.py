@@ -61,17 +61,18 @@ __all__ = ["make_rollout", "rollout", "n_blocks_for", "default_chunk", "needs_re
 def needs_rebuild(state: State, config: Config) -> jax.Array:
     """Whether the next step would move a particle more than ``skin / 2`` from the list's build
     positions (bool scalar; no gradient). Predicts ``x + dt (v + dt/2 a)`` for every particle
-    (``x`` itself for a scheme whose sums use the step's start, ``FluidScheme.sums_at_start``)
-    (the fluid's drift exactly; walls at rest do not move; block-carried particles approximately,
-    which ``step.check`` still guards with ``Status.NEIGHBOUR_STALE``)."""
+    (the fluid's own ``x`` for a scheme whose sums use the step's start, ``FluidScheme.sums_at_start``:
+    the blocks move first in a step, so their particles are predicted either way) (the fluid's
+    drift exactly; walls at rest do not move; block-carried particles approximately, which
+    ``step.check`` still guards with ``Status.NEIGHBOUR_STALE``)."""
     if not config.has_particles or state.nbrs is None:
         return jnp.zeros((), bool)
     P = jax.lax.stop_gradient(state.particles)
     dt = config.dt
-    if config.scheme.sums_at_start:  # its sums use these positions: the list must hold for them
-        disp = P.x - state.nbrs.x_ref
-    else:
-        disp = P.x + dt * (P.v + (0.5 * dt) * P.a) - state.nbrs.x_ref
+    pred = P.x + dt * (P.v + (0.5 * dt) * P.a)
+    if config.scheme.sums_at_start:  # the fluid's sums use these positions: the list must hold for them
+        pred = jnp.where((P.kind == Kind.FLUID)[:, None], P.x, pred)
+    disp = pred - state.nbrs.x_ref
     g = config.grid
     if any(g.periodic):
         L = jnp.asarray(g.lengths, disp.dtype)

@@ -102,8 +102,20 @@ def _advance_blocks(state: State, params: Params, config: Config) -> State:
     if state.coupling is not None:
         force, torque = state.coupling.force, state.coupling.torque
     t = state.step * config.dt
-    B, status = blocks.advance_blocks(state.blocks, params.blocks, config.blocks, dt=config.dt, t=t,
-                                      gravity=params.gravity, external_force=force, external_torque=torque)
+    n = config.block_substeps
+    if n == 1:
+        B, status = blocks.advance_blocks(state.blocks, params.blocks, config.blocks, dt=config.dt, t=t,
+                                          gravity=params.gravity, external_force=force, external_torque=torque)
+        return state.replace(blocks=B, status=state.status | status)
+    dt = config.block_dt
+
+    def sub(k, carry):  # a fixed count of block steps under the step's fluid load
+        B, status = carry
+        B, bits = blocks.advance_blocks(B, params.blocks, config.blocks, dt=dt, t=t + k * dt, gravity=params.gravity,
+                                        external_force=force, external_torque=torque)
+        return B, status | bits
+
+    B, status = jax.lax.fori_loop(0, n, sub, (state.blocks, jnp.zeros((), jnp.int32)))
     return state.replace(blocks=B, status=state.status | status)
 
 

@@ -255,6 +255,9 @@ class Config:
             a rare artefact (the wedge: one particle trapped 0.34 dx inside the slope's toe).
             Ignored by the penalty coupling, like ``coupling_guard`` (there a guarded floor held a
             landing block 0.75 dx up on trapped water: ``coupling.penalty.guard_fixed``).
+        block_substeps: block steps per step (``block_dt = dt / block_substeps``, the fluid load held
+            over them): an incompressible fluid step (DFSPH, ~12x WCSPH's) need not soften the rock
+            contacts to its own length (``scenes.coupled_scene``).
         absorbers: damping zones for the water (``rockjax.sph.Sponge``: a sponge layer at a
             flume's end), applied after each fluid step; empty (default): none, nothing traced.
 
@@ -279,6 +282,7 @@ class Config:
     coupling_guard: bool = True
     guard_fixed: bool = False
     absorbers: tuple = ()
+    block_substeps: int = 1
 
     def __post_init__(self):
         # Host-side checks of the static description; scene builders catch most problems earlier.
@@ -309,6 +313,9 @@ class Config:
         if not isinstance(self.absorbers, tuple) or not all(isinstance(a, Absorber) for a in self.absorbers):
             raise ValueError(f"Config.absorbers must be a tuple of absorbing zones (rockjax.sph.Sponge(...)), "
                              f"got {self.absorbers!r}")
+        if not (isinstance(self.block_substeps, int) and not isinstance(self.block_substeps, bool)
+                and self.block_substeps >= 1):
+            raise ValueError(f"Config.block_substeps must be an integer >= 1 (got {self.block_substeps!r})")
         if self.absorbers and self.n_fluid == 0:
             raise ValueError("Config.absorbers: the scene has no water to absorb; set absorbers=()")
         if not self.has_particles:
@@ -390,6 +397,11 @@ class Config:
     def has_blocks(self) -> bool:
         """Whether any block stage is traced."""
         return self.blocks is not None
+
+    @property
+    def block_dt(self) -> float:
+        """The block stage's step [s]: ``dt / block_substeps``."""
+        return self.dt / self.block_substeps
 
     @property
     def effective_row_tile(self) -> int:

@@ -22,7 +22,7 @@ import numpy as np
 from ..sph.schemes import WCSPH, FluidScheme
 from ..sph.viscosity import Laminar
 from ..types import Capacities, Config, Coupling, CouplingParams, State, float_dtype
-from .base import GRAVITY, Resolution, Scene, _ceil8, _density, _lengths, _positive, as_scheme, make_state, particle_layout, stable_dt, water_params
+from .base import GRAVITY, Resolution, Scene, _ceil8, _density, _lengths, _positive, as_scheme, make_state, particle_layout, scheme_resolution, stable_dt, water_params
 from .block_sampling import sample_block_particles, submerged_pair_count
 from .meta import SceneMeta
 from .shapes import fill, plane, shell
@@ -72,7 +72,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
                   skin_factor: float = 0.6,
                   rebuild_every: int = 8, cfl: float = 0.25, scheme: FluidScheme | str = WCSPH(),
                   velocities=None, joint_water: bool = False, coupling_guard: bool = True, guard_fixed: bool = False,
-                  block_kwargs: dict | None = None, meta: dict | None = None) -> Scene:
+                  block_kwargs: dict | None = None, meta: dict | None = None, block_substeps: int = 1) -> Scene:
     """Assemble a scene of water (optional) and blocks from host data.
 
     Args:
@@ -92,7 +92,13 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         guard_fixed: with that guard, the FIXED blocks' faces too (``Config.guard_fixed``, off by
             default: ~0.2 ms/step per fixed block at 4.3k water particles).
         block_kwargs: extra keywords for ``blocks.make_blocks`` (stiffness, damping, ...).
+        block_substeps: block steps per fluid step (``Config.block_substeps``): the rock contact
+            stiffness is softened only as far as the block step ``dt / block_substeps`` needs.
+            With a fluid step longer than the acoustic one (DFSPH) the penalty coupling's (or
+            guard's) stiffness is lowered to ``(0.65 / dt)^2``.
     """
+    if not (isinstance(block_substeps, int) and block_substeps >= 1):
+        raise ValueError(f"{name}: block_substeps must be an integer >= 1 (got {block_substeps!r})")
     blocks = _blocks_api()
     B = len(polyhedra)
     if joint_water:
@@ -165,24 +171,30 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         body_pair_capacity = min(_ceil8(1.25 * pairs_b), L.wall_pair_capacity)
         n_block_particles = len(wall_x) - n_fixed_walls  # the walls' tail (sorted apart at each list build)
     dt = stable_dt(params, scheme=scheme, cfl=cfl)
+    n_sub = block_substeps
     dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
-    if dt_blocks < dt and "normal_stiffness" not in (block_kwargs or {}):
+    if dt_blocks < dt / n_sub and "normal_stiffness" not in (block_kwargs or {}):
         # The rock penalty stiffness only has to keep block overlaps small; soften it so the blocks
-        # do not force a smaller step than the water needs (dt ~ 1/sqrt(k)).
-        k_rock = float(bparams.normal_stiffness) * (dt_blocks / dt) ** 2 * 0.98
+        # do not force a smaller block step than dt / block_substeps (dt ~ 1/sqrt(k)).
+        k_rock = float(bparams.normal_stiffness) * (dt_blocks * n_sub / dt) ** 2 * 0.98
         bconfig, bparams, bstate = blocks.make_blocks(
             list(polyhedra), positions=np.asarray(positions, float), motion=tuple(motion), velocities=velocities,
             density=density, friction_angle_deg=friction_angle_deg, normal_stiffness=k_rock,
             **(block_kwargs or {}))
         params = params.replace(blocks=bparams)
         dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
-    dt = min(dt, dt_blocks)
+    dt = min(dt, n_sub * dt_blocks)
     meta["block_normal_stiffness"] = float(bparams.normal_stiffness)
+    if coupling != Coupling.NONE and float(params.coupling.penalty_stiffness) * dt**2 > 1.5 * 0.65**2:
+        # a fluid step longer than the acoustic one (DFSPH): the seed Eq 22 penalty (or the guard)
+        # is integrated with the fluid's dt, so its oscillation sqrt(K_S) dt is held at 0.65
+        params = params.replace(coupling=coupling_params(dx=dx, c0=c0, coupling=coupling, stiffness=(0.65 / dt) ** 2))
     config = Config(n_fluid=len(fluid_x), n_wall=len(wall_x), dt=dt, grid=L.grid, cutoff=L.cutoff, skin=L.skin,
                     rebuild_every=rebuild_every,
                     capacities=Capacities(neighbours=L.neighbour_capacity, cells=L.cell_capacity,
                                           wall_pairs=L.wall_pair_capacity, body_pairs=body_pair_capacity),
                     n_block_particles=n_block_particles, scheme=scheme, cfl=cfl, blocks=bconfig, coupling=coupling,
+                    block_substeps=n_sub,
                     coupling_guard=bool(coupling_guard), guard_fixed=bool(guard_fixed))
     state = make_state(config=config, x=L.x, kind=L.kind, vol=vol, rho=L.rho)
     if coupling == Coupling.BOUNDARY_PARTICLES:
@@ -283,8 +295,9 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
                   friction_angle_deg: float = 15.0, block_length: float = 0.4, block_width: float = 0.2,
                   water_depth: float = 0.4, flat_length: float = 1.0, far_slope_deg: float = 30.0,
                   flume_width: float = 0.4, start_distance: float = 0.1, coupling: Coupling = Coupling.PENALTY,
-                  h_factor: float = 1.3, c0: float | None = None, rebuild_every: int = 8,
-                  joint_water: bool = True) -> Scene:
+                  h_factor: float | None = None, c0: float | None = None, rebuild_every: int = 8,
+                  joint_water: bool = True, scheme: FluidScheme | str = WCSPH(), cfl: float | None = None,
+                  skin_factor: float | None = None, block_substeps: int = 1) -> Scene:
     """The seed's second example: a rigid wedge sliding down a 25 degree plane into water.
 
     The wedge has a horizontal top of ``block_length`` [m], a vertical front face and its
@@ -300,8 +313,14 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
         joint_water: the wedge's face on the slope carries the hydrostatic pressure of the still
             water (``blocks.joint_water``; without it the water presses the wedge into the slope
             and friction stops it there, see tests/coupling/test_wedge_run.py).
+        scheme: the fluid scheme (an object or a name); ``h_factor`` / ``cfl`` None: the scheme's
+            (``scheme_resolution``); ``skin_factor`` None: 0.6 dx whatever the scheme (the block
+            particles move within a step before the water's sums: with DFSPH's step they move
+            up to ~0.3 dx). block_substeps: block steps per fluid step (``coupled_scene``).
     """
     dx = _positive("sliding_wedge: dx", dx)
+    scheme = as_scheme(scheme)
+    h_factor, cfl, skin_factor = scheme_resolution(scheme, h_factor, cfl, 0.6 if skin_factor is None else skin_factor)
     block_density = _density("sliding_wedge: block_density", block_density)
     for nm, v in (("block_length", block_length), ("block_width", block_width), ("water_depth", water_depth),
                   ("flat_length", flat_length), ("flume_width", flume_width)):
@@ -338,7 +357,8 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
                          block_density=[block_density, 2500.0, 2500.0], friction_angle_deg=friction_angle_deg,
                          fluid_x=water, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi, still_level=0.0,
                          coupling=coupling, c0=c0, h_factor=h_factor, rebuild_every=rebuild_every,
-                         joint_water=joint_water, meta=meta)
+                         joint_water=joint_water, meta=meta, scheme=scheme, cfl=cfl, skin_factor=skin_factor,
+                         block_substeps=block_substeps)
 
 
 def rock_slope(*, dx: float = 0.02, failure: str = "planar", slope_angle_deg: float | None = None,
