@@ -1,8 +1,8 @@
 """The seed's sliding wedge with each fluid scheme: DFSPH against WCSPH on the same scene.
 
 ``sliding_wedge`` with boundary-particle coupling at ``--dx``, run to ``--t-end`` with WCSPH and
-with DFSPH (``--substeps``: block steps per DFSPH step, ``Config.block_substeps``; the rock
-contact is softened only as far as the block step needs, so ~12 keeps WCSPH's rock stiffness).
+with DFSPH (``--substeps``: block steps per DFSPH step, ``Config.block_substeps``; by default the
+scene's, ~13, which keeps the rock stiffness WCSPH has on the scene).
 Per run one JSON line: steps, dt, wall time (compiled run; the first run's compile excluded by
 timing a second), the wedge's impact speed, gauge maxima on the flat, hard and smooth run-up
 maxima on the far beach, the wedge's final position. Ratios against the WCSPH run of the same
@@ -26,7 +26,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from jsonl_out import emit  # noqa: E402
 
 
-def run(dx: float, t_end: float, scheme: str, substeps: int, flat_length: float) -> dict:
+def run(dx: float, t_end: float, scheme: str, substeps: int | None, flat_length: float) -> dict:
     import rockjax as rj
     from rockjax.observables import impact_velocity, scene_observer
 
@@ -63,13 +63,14 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dx", type=float, default=0.04)
     ap.add_argument("--t-end", type=float, default=1.5)
-    ap.add_argument("--substeps", type=int, default=12, help="block steps per DFSPH step")
+    ap.add_argument("--substeps", type=int, default=None,
+                    help="block steps per DFSPH step (default: the scene's, as many as make WCSPH's step)")
     ap.add_argument("--flat-length", type=float, default=0.5)
     ap.add_argument("--out", default=None)
     a = ap.parse_args(argv)
     meta = {"date": datetime.date.today().isoformat(), "host_cpus": os.cpu_count(), "machine": platform.machine()}
     recs = {}
-    for scheme, n in (("wcsph", 1), ("dfsph", a.substeps)):
+    for scheme, n in (("wcsph", None), ("dfsph", a.substeps)):
         try:
             recs[scheme] = dict(run(a.dx, a.t_end, scheme, n, a.flat_length), **meta)
         except Exception as exc:  # a failed run is a result too
@@ -78,7 +79,7 @@ def main(argv=None):
     w, d = recs["wcsph"], recs["dfsph"]
     if "error" not in w and "error" not in d:
         rel = lambda k: round(d[k] / w[k], 4) if w.get(k) else None  # noqa: E731
-        emit(dict(bench="wedge_dfsph", kind="ratio", dx=a.dx, block_substeps=a.substeps, wall_time=rel("wall_s"),
+        emit(dict(bench="wedge_dfsph", kind="ratio", dx=a.dx, block_substeps=d["block_substeps"], wall_time=rel("wall_s"),
                   impact_speed=rel("impact_speed"), max_runup=rel("max_runup"), max_smooth_runup=rel("max_smooth_runup"),
                   max_gauge=[round(x / y, 4) if y else None for x, y in zip(d["max_gauge"], w["max_gauge"])], **meta),
              a.out)

@@ -31,6 +31,11 @@ __all__ = ["coupled_scene", "sliding_wedge", "rock_slope", "floating_box", "bloc
            "sample_block_particles", "coupling_params"]
 
 
+#: WCSPH's time step on a coupled scene's default resolution, in dx / c0 (cfl 0.25 x h 1.3 dx): the
+#: block step ``coupled_scene`` keeps when a fluid scheme takes longer steps (``block_substeps``).
+ACOUSTIC_STEP = 0.25 * 1.3
+
+
 def coupling_params(*, dx: float, c0: float, stiffness: float | None = None, damping: float | None = None,
                     interaction_distance: float | None = None,
                     coupling: Coupling = Coupling.PENALTY) -> CouplingParams:
@@ -72,7 +77,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
                   skin_factor: float = 0.6,
                   rebuild_every: int = 8, cfl: float = 0.25, scheme: FluidScheme | str = WCSPH(),
                   velocities=None, joint_water: bool = False, coupling_guard: bool = True, guard_fixed: bool = False,
-                  block_kwargs: dict | None = None, meta: dict | None = None, block_substeps: int = 1) -> Scene:
+                  block_kwargs: dict | None = None, meta: dict | None = None, block_substeps: int | None = None) -> Scene:
     """Assemble a scene of water (optional) and blocks from host data.
 
     Args:
@@ -94,10 +99,12 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         block_kwargs: extra keywords for ``blocks.make_blocks`` (stiffness, damping, ...).
         block_substeps: block steps per fluid step (``Config.block_substeps``): the rock contact
             stiffness is softened only as far as the block step ``dt / block_substeps`` needs.
-            With a fluid step longer than the acoustic one (DFSPH) the penalty coupling's (or
-            guard's) stiffness is lowered to ``(0.65 / dt)^2``.
+            None: 1, or with a fluid step over twice WCSPH's acoustic one on this scene
+            (``ACOUSTIC_STEP dx / c0``; DFSPH: ~12x) as many as make the block step that one, so
+            the rocks keep the stiffness they have with WCSPH. With such a step the penalty
+            coupling's (or guard's) stiffness is lowered to ``(0.65 / dt)^2``.
     """
-    if not (isinstance(block_substeps, int) and block_substeps >= 1):
+    if block_substeps is not None and not (isinstance(block_substeps, int) and block_substeps >= 1):
         raise ValueError(f"{name}: block_substeps must be an integer >= 1 (got {block_substeps!r})")
     blocks = _blocks_api()
     B = len(polyhedra)
@@ -172,6 +179,9 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         n_block_particles = len(wall_x) - n_fixed_walls  # the walls' tail (sorted apart at each list build)
     dt = stable_dt(params, scheme=scheme, cfl=cfl)
     n_sub = block_substeps
+    if n_sub is None:  # more than twice WCSPH's step: the block steps that make its step
+        ratio = dt / (ACOUSTIC_STEP * dx / c0)
+        n_sub = math.ceil(ratio - 1e-3) if ratio > 2.0 else 1
     dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
     if dt_blocks < dt / n_sub and "normal_stiffness" not in (block_kwargs or {}):
         # The rock penalty stiffness only has to keep block overlaps small; soften it so the blocks
@@ -297,7 +307,7 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
                   flume_width: float = 0.4, start_distance: float = 0.1, coupling: Coupling = Coupling.PENALTY,
                   h_factor: float | None = None, c0: float | None = None, rebuild_every: int = 8,
                   joint_water: bool = True, scheme: FluidScheme | str = WCSPH(), cfl: float | None = None,
-                  skin_factor: float | None = None, block_substeps: int = 1) -> Scene:
+                  skin_factor: float | None = None, block_substeps: int | None = None) -> Scene:
     """The seed's second example: a rigid wedge sliding down a 25 degree plane into water.
 
     The wedge has a horizontal top of ``block_length`` [m], a vertical front face and its
