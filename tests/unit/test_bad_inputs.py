@@ -207,6 +207,10 @@ CASES = [
     ("dfsph-tolerance-negative", lambda t: rj.DFSPH(tolerance=-1e-3), r"DFSPH: tolerance must be a positive"),
     ("dfsph-min-divergence-iterations-zero", lambda t: rj.DFSPH(min_divergence_iterations=0),
      r"DFSPH: need an integer 1 <= min_divergence_iterations"),
+    ("dfsph-penalty-coupling", lambda t: rj.scenes.sliding_wedge(dx=0.05, scheme="dfsph"),
+     r"sliding_wedge: coupling = penalty needs the acoustic time step.*BOUNDARY_PARTICLES"),
+    ("block-substeps-zero", lambda t: rj.scenes.sliding_wedge(dx=0.05, block_substeps=0),
+     r"sliding_wedge: block_substeps must be an integer >= 1"),
     # ---- time ----------------------------------------------------------------------------------
     ("t-end-nan", lambda t: rj.simulate(_incline(), t_end=math.nan), r"t_end must be a positive finite"),
     ("t-end-inf", lambda t: rj.simulate(_incline(), t_end=math.inf), r"t_end must be a positive finite"),

@@ -179,8 +179,12 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
         n_block_particles = len(wall_x) - n_fixed_walls  # the walls' tail (sorted apart at each list build)
     dt = stable_dt(params, scheme=scheme, cfl=cfl)
     n_sub = block_substeps
+    ratio = dt / (ACOUSTIC_STEP * dx / c0)
+    if coupling == Coupling.PENALTY and ratio > 2.0:
+        raise ValueError(f"{name}: coupling = penalty needs the acoustic time step (seed Eq 22's spring stops water "
+                         f"within dx/2 only at dt ~ 0.3 dx / c0); scheme {scheme.name!r} steps {ratio:.0f}x longer: "
+                         "use coupling=Coupling.BOUNDARY_PARTICLES (command line: --coupling boundary_particles)")
     if n_sub is None:  # more than twice WCSPH's step: the block steps that make its step
-        ratio = dt / (ACOUSTIC_STEP * dx / c0)
         n_sub = math.ceil(ratio - 1e-3) if ratio > 2.0 else 1
     dt_blocks = float(blocks.stable_dt(bconfig, bparams, bstate))
     if dt_blocks < dt / n_sub and "normal_stiffness" not in (block_kwargs or {}):
