@@ -43,14 +43,19 @@ import time
 from rockjax.types import Adjoint, GatherForm
 
 
-def build(name: str, dx: float = 0.05):
+def build(name: str, dx: float = 0.05, dfsph_iterations: int | None = None):
     import numpy as np
 
     from rockjax import scenes
 
     if name == "dam":
+        kw = {}
+        if dfsph_iterations:  # the differentiable DFSPH: fixed sweeps; its list is rebuilt every step
+            from rockjax import DFSPH
+
+            kw = dict(scheme=DFSPH(iterations=dfsph_iterations), rebuild_every=1)
         return scenes.dam_break(dx=dx, column_length=0.3, column_width=0.3, column_height=0.5, tank_length=0.8,
-                                tank_width=0.3)
+                                tank_width=0.3, **kw)
     if name == "wedge":
         return scenes.sliding_wedge(dx=0.05, slope_angle_deg=40.0, block_length=0.2, block_width=0.2,
                                     water_depth=0.2, flat_length=0.4, flume_width=0.4, start_distance=0.0)
@@ -243,6 +248,8 @@ def main(argv=None):
     ap.add_argument("--dx", type=float, default=0.05, help="particle spacing of the dam scene m (0.05: 360 fluid)")
     ap.add_argument("--gather", default=None, choices=["components", "rows"], help="Tuning.gather (GatherForm)")
     ap.add_argument("--skip-grad", action="store_true")
+    ap.add_argument("--dfsph-iterations", type=int, default=None,
+                    help="dam scene with DFSPH(iterations=N) (fixed sweeps per solve), list rebuilt every step")
     ap.add_argument("--skip-ensemble", action="store_true")
     ap.add_argument("--levels", type=int, default=2, choices=[1, 2, 3],
                     help="checkpoint levels (rollout's checkpoint_levels): 1 chunks, 2 + steps, 3 + blocks")
@@ -274,7 +281,7 @@ def main(argv=None):
     from rockjax.calibrate import observed
     from rockjax.rollout import default_chunk
 
-    scene = build(args.scene, args.dx)
+    scene = build(args.scene, args.dx, args.dfsph_iterations)
     if args.jax_pullbacks:
         scene = scene.replace(config=scene.config.tuned(hand_pullbacks=False))
     if args.backward_tile is not None:
@@ -287,7 +294,8 @@ def main(argv=None):
     k = config.rebuild_every
     T = args.base_steps or 2 * k
     obj = objective(scene)
-    base = dict(scene=args.scene, n_fluid=config.n_fluid, n_wall=config.n_wall,
+    base = dict(scene=args.scene, scheme=config.scheme.name, sweeps=getattr(config.scheme, "iterations", None),
+                n_fluid=config.n_fluid, n_wall=config.n_wall,
                 n_blocks=(config.blocks.n_blocks if config.blocks else 0), dtype="f64" if args.f64 else "f32",
                 adjoint=config.effective_adjoint.value, gather=config.effective_gather.value, row_tile=config.effective_row_tile,
                 jax_pullbacks=args.jax_pullbacks, backward_tile=args.backward_tile,

@@ -26,12 +26,12 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from jsonl_out import emit  # noqa: E402
 
 
-def run(dx: float, t_end: float, scheme: str, substeps: int | None, flat_length: float) -> dict:
+def run(dx: float, t_end: float, scheme: str, substeps: int | None, flat_length: float, cfl: float | None = None) -> dict:
     import rockjax as rj
     from rockjax.observables import impact_velocity, scene_observer
 
     scene = rj.scenes.sliding_wedge(dx=dx, coupling=rj.Coupling.BOUNDARY_PARTICLES, flat_length=flat_length,
-                                    scheme=scheme, block_substeps=substeps)
+                                    scheme=scheme, block_substeps=substeps, cfl=cfl)
     kw = dict(t_end=t_end, frame_dt=0.02, observe=scene_observer(scene.meta), progress=False)
     t0 = time.perf_counter()
     rj.simulate(scene, **kw)  # compiles
@@ -45,7 +45,7 @@ def run(dx: float, t_end: float, scheme: str, substeps: int | None, flat_length:
     c = scene.config
     return {"bench": "wedge_dfsph", "scheme": scheme, "kernel": c.scheme.kernel.name,
             "h_dx": round(float(scene.params.fluid.h) / dx, 3), "block_substeps": c.block_substeps, "dx": dx,
-            "n_fluid": c.n_fluid, "n_wall": c.n_wall, "dt": c.dt, "block_dt": c.block_dt,
+            "n_fluid": c.n_fluid, "n_wall": c.n_wall, "cfl": c.cfl, "dt": c.dt, "block_dt": c.block_dt,
             "rock_stiffness": float(scene.params.blocks.normal_stiffness),
             "t_end": float(res.times[-1]), "steps": res.stats["steps"], "regrows": res.stats["regrows"],
             "wall_s": round(wall, 2), "wall_s_with_compile": round(cold, 2),
@@ -66,17 +66,21 @@ def main(argv=None):
     ap.add_argument("--substeps", type=int, default=None,
                     help="block steps per DFSPH step (default: the scene's, as many as make WCSPH's step)")
     ap.add_argument("--flat-length", type=float, default=0.5)
+    ap.add_argument("--schemes", nargs="+", default=["wcsph", "dfsph"], choices=["wcsph", "dfsph"])
+    ap.add_argument("--cfl", type=float, default=None, help="DFSPH's CFL number (default the scheme's, 0.4)")
     ap.add_argument("--out", default=None)
     a = ap.parse_args(argv)
     meta = {"date": datetime.date.today().isoformat(), "host_cpus": os.cpu_count(), "machine": platform.machine()}
     recs = {}
-    for scheme, n in (("wcsph", None), ("dfsph", a.substeps)):
+    for scheme in a.schemes:
+        n, cfl = (a.substeps, a.cfl) if scheme == "dfsph" else (None, None)
         try:
-            recs[scheme] = dict(run(a.dx, a.t_end, scheme, n, a.flat_length), **meta)
+            recs[scheme] = dict(run(a.dx, a.t_end, scheme, n, a.flat_length, cfl), **meta)
         except Exception as exc:  # a failed run is a result too
-            recs[scheme] = dict(bench="wedge_dfsph", scheme=scheme, block_substeps=n, dx=a.dx, error=str(exc)[:400], **meta)
+            recs[scheme] = dict(bench="wedge_dfsph", scheme=scheme, block_substeps=n, cfl=cfl, dx=a.dx,
+                                error=str(exc)[:400], **meta)
         emit(recs[scheme], a.out)
-    w, d = recs["wcsph"], recs["dfsph"]
+    w, d = recs.get("wcsph", {"error": "not run"}), recs.get("dfsph", {"error": "not run"})
     if "error" not in w and "error" not in d:
         rel = lambda k: round(d[k] / w[k], 4) if w.get(k) else None  # noqa: E731
         emit(dict(bench="wedge_dfsph", kind="ratio", dx=a.dx, block_substeps=d["block_substeps"], wall_time=rel("wall_s"),
