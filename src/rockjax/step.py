@@ -57,8 +57,23 @@ def refresh(state: State, config: Config) -> State:
     return state.replace(particles=particles, nbrs=nbrs, status=state.status | status)
 
 
-def check(state: State, params: Params, config: Config) -> jax.Array:
-    """Status bits [int32] for the particles just produced: finiteness, domain, list staleness, dt."""
+def _stale(x, x_ref, active, config: Config) -> jax.Array:
+    """``Status.NEIGHBOUR_STALE`` where an ``active`` particle at ``x`` [N, 3] is more than
+    ``skin / 2`` from the list's build position ``x_ref`` (integer scalar)."""
+    g = config.grid
+    disp = x - x_ref
+    if any(g.periodic):
+        L = jnp.asarray(g.lengths, x.dtype)
+        disp = jnp.where(jnp.asarray(g.periodic), disp - L * jnp.round(disp / L), disp)
+    max_disp2 = jnp.max(jnp.where(active, jnp.sum(disp * disp, -1), 0.0))
+    return jnp.where(max_disp2 > (0.5 * config.skin) ** 2, Status.NEIGHBOUR_STALE, 0)
+
+
+def check(state: State, params: Params, config: Config, *, stale=None) -> jax.Array:
+    """Status bits [int32] for the particles just produced: finiteness, domain, list staleness, dt.
+
+    ``stale``: the staleness bits of the positions the step's sums used, when the step computed
+    them (a scheme whose sums use the step's start: ``advance``); else they are those of ``state``."""
     if not config.has_particles:
         return jnp.zeros((), jnp.int32)
     P = state.particles
@@ -72,15 +87,7 @@ def check(state: State, params: Params, config: Config) -> jax.Array:
     out = ((P.x < lo) | (P.x >= hi)) & ~jnp.asarray(g.periodic)
     status |= jnp.where(jnp.any(out.any(-1) & active), Status.OUT_OF_DOMAIN, 0)
 
-    x_used = P.x
-    if config.scheme.sums_at_start and config.n_fluid:  # the step's sums used the fluid at x - dt v
-        x_used = jnp.where((P.kind == Kind.FLUID)[:, None], P.x - config.dt * P.v, P.x)
-    disp = x_used - state.nbrs.x_ref
-    if any(g.periodic):
-        L = jnp.asarray(g.lengths, P.x.dtype)
-        disp = jnp.where(jnp.asarray(g.periodic), disp - L * jnp.round(disp / L), disp)
-    max_disp2 = jnp.max(jnp.where(active, jnp.sum(disp * disp, -1), 0.0))
-    status |= jnp.where(max_disp2 > (0.5 * config.skin) ** 2, Status.NEIGHBOUR_STALE, 0)
+    status |= _stale(P.x, state.nbrs.x_ref, active, config) if stale is None else stale
 
     f = params.fluid
     if f is None or config.n_fluid == 0:
@@ -126,12 +133,16 @@ def advance(state: State, params: Params, config: Config) -> State:
     if config.has_blocks:
         state = _advance_blocks(state, params, config)
     state = coupling.place(state, params, config)
+    stale = None
+    if config.scheme.sums_at_start and config.has_particles:  # the positions its sums use: these
+        P = jax.lax.stop_gradient(state.particles)
+        stale = _stale(P.x, state.nbrs.x_ref, P.kind != Kind.PAD, config)
     if config.n_fluid > 0:
         state = coupling.fluid_step(state, params, config)
     for absorber in config.absorbers:
         state = state.replace(particles=absorber.apply(state.particles, config.dt))
     state = state.replace(step=state.step + 1)
-    return state.replace(status=state.status | check(state, params, config))
+    return state.replace(status=state.status | check(state, params, config, stale=stale))
 
 
 @functools.partial(jax.jit, static_argnames=("config",))
