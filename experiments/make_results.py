@@ -1457,6 +1457,19 @@ def sec_dfsph(doc: Doc):
                  r.get("peer_source")] for r in ratios]
         doc.p("Ratios rockjax / SPlisHSPlasH DFSPH (issue 49 target: sim-time ratio >= 1.0 for DFSPH):\n\n"
               + table(["date", "size", "rockjax scheme", "particle-steps/s ratio", "sim-time ratio", "peer"], rows))
+    grad = doc.records("bench_grad_dfsph.jsonl", "python experiments/bench_grad.py --scene dam --dfsph-iterations 4 "
+                       "--skip-ensemble --base-steps 8 >> experiments/results/bench_grad_dfsph.jsonl")
+    if grad is not None:
+        doc.p("Gradients through DFSPH (`bench_grad.py --dfsph-iterations 4`: the 0.3 x 0.3 x 0.5 m dam break at dx "
+              "0.05 m, 360 water particles, `DFSPH(iterations=4)`: 4 masked sweeps per solve, the list rebuilt every "
+              "step; float32): checkpointed `value_and_grad` over the forward of the same fixed-sweep rollout (issue 49 "
+              "target <= 5; the while-loop forward takes ~2-3 sweeps per solve, so against it the ratio is higher), and "
+              "XLA's temporary bytes of the compiled programs.")
+        rows = [[r.get("date"), r.get("steps"), r.get("sweeps"), round(r["grad_over_forward"], 2),
+                 round(r["forward_temp_bytes"] / 1e6, 1), round(r["grad_checkpointed_temp_bytes"] / 1e6, 1),
+                 round(r["grad_plain_temp_bytes"] / 1e6, 1)] for r in grad if r.get("bench") == "grad"]
+        doc.p(table(["date", "steps", "sweeps", "grad / forward", "forward MB", "checkpointed grad MB",
+                     "plain grad MB"], rows))
     rest = doc.records("dfsph_rest.jsonl", "python experiments/dfsph_rest.py --peer-python PEER_VENV/bin/python "
                        "--out experiments/results/dfsph_rest.jsonl")
     if rest is not None:
