@@ -53,7 +53,7 @@ import jax
 import jax.numpy as jnp
 
 from .sph.pair_sum import SAVED_NAME
-from .step import advance, refresh
+from .step import advance, max_displacement2, refresh
 from .types import Adjoint, Config, Kind, Params, State
 
 __all__ = ["make_rollout", "rollout", "n_blocks_for", "default_chunk", "needs_rebuild", "scheduled_step"]
@@ -72,13 +72,7 @@ def needs_rebuild(state: State, config: Config) -> jax.Array:
     pred = P.x + dt * (P.v + (0.5 * dt) * P.a)
     if config.scheme.sums_at_start:  # the fluid's sums use these positions: the list must hold for them
         pred = jnp.where((P.kind == Kind.FLUID)[:, None], P.x, pred)
-    disp = pred - state.nbrs.x_ref
-    g = config.grid
-    if any(g.periodic):
-        L = jnp.asarray(g.lengths, disp.dtype)
-        disp = jnp.where(jnp.asarray(g.periodic), disp - L * jnp.round(disp / L), disp)
-    d2 = jnp.where(P.kind != Kind.PAD, jnp.sum(disp * disp, -1), 0.0)
-    return jnp.max(d2) > (0.5 * config.skin) ** 2
+    return max_displacement2(pred, state.nbrs.x_ref, P.kind != Kind.PAD, config) > (0.5 * config.skin) ** 2
 
 
 def n_blocks_for(config: Config, n_steps: int) -> int:

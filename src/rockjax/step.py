@@ -57,16 +57,22 @@ def refresh(state: State, config: Config) -> State:
     return state.replace(particles=particles, nbrs=nbrs, status=state.status | status)
 
 
-def _stale(x, x_ref, active, config: Config) -> jax.Array:
-    """``Status.NEIGHBOUR_STALE`` where an ``active`` particle at ``x`` [N, 3] is more than
-    ``skin / 2`` from the list's build position ``x_ref`` (integer scalar)."""
+def max_displacement2(x, x_ref, active, config: Config) -> jax.Array:
+    """The largest squared distance [m^2] of an ``active`` particle at ``x`` [N, 3] from its list
+    build position ``x_ref`` (nearest image on periodic axes): the list holds while it stays
+    below ``(skin / 2)^2`` (``check``, ``rollout.needs_rebuild``)."""
     g = config.grid
     disp = x - x_ref
     if any(g.periodic):
-        L = jnp.asarray(g.lengths, x.dtype)
+        L = jnp.asarray(g.lengths, disp.dtype)
         disp = jnp.where(jnp.asarray(g.periodic), disp - L * jnp.round(disp / L), disp)
-    max_disp2 = jnp.max(jnp.where(active, jnp.sum(disp * disp, -1), 0.0))
-    return jnp.where(max_disp2 > (0.5 * config.skin) ** 2, Status.NEIGHBOUR_STALE, 0)
+    return jnp.max(jnp.where(active, jnp.sum(disp * disp, -1), 0.0))
+
+
+def _stale(x, x_ref, active, config: Config) -> jax.Array:
+    """``Status.NEIGHBOUR_STALE`` where an ``active`` particle at ``x`` [N, 3] is more than
+    ``skin / 2`` from the list's build position ``x_ref`` (integer scalar)."""
+    return jnp.where(max_displacement2(x, x_ref, active, config) > (0.5 * config.skin) ** 2, Status.NEIGHBOUR_STALE, 0)
 
 
 def check(state: State, params: Params, config: Config, *, stale=None) -> jax.Array:

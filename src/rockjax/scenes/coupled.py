@@ -334,7 +334,8 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
     """
     dx = _positive("sliding_wedge: dx", dx)
     scheme = as_scheme(scheme)
-    h_factor, cfl, skin_factor = scheme_resolution(scheme, h_factor, cfl, 0.6 if skin_factor is None else skin_factor)
+    h_factor, cfl, _ = scheme_resolution(scheme, h_factor, cfl)
+    skin_factor = 0.6 if skin_factor is None else skin_factor
     block_density = _density("sliding_wedge: block_density", block_density)
     for nm, v in (("block_length", block_length), ("block_width", block_width), ("water_depth", water_depth),
                   ("flat_length", flat_length), ("flume_width", flume_width)):

@@ -84,7 +84,7 @@ Form (b): a general scene
     scheme = "wcsph"                   # or "seed"; c0 [m/s] (default 10 x the largest expected
     # speed), h_factor and cfl (default: the scheme's), alpha, nu [m^2/s], delta, wall_viscosity (0 = free-slip walls and
     # blocks), skin_factor (Verlet skin / dx; default the scheme's, 0.3 with WCSPH, 0.6 with moving blocks),
-    # rebuild_every, cfl; kernel,
+    # rebuild_every; kernel,
     # viscosity, wall_model, density_diffusion (water-only scenes; with blocks the defaults hold);
     # seed_gradient ("spiky", the paper's, or "poly6": the seed scheme's pressure-gradient kernel)
 
@@ -1017,9 +1017,7 @@ def parse(ctx: _Ctx, doc: dict, overrides: dict) -> SceneSpec:
         from .fluid import _scheme_defaults
 
         scheme, alpha, nu = _scheme_defaults(_fluid_scheme(ctx, sph), alpha, nu)
-        h_factor, cfl, _ = scheme_resolution(scheme, sph["h_factor"], sph["cfl"])
-    else:
-        h_factor, cfl = sph["h_factor"] or 1.3, sph["cfl"] or 0.25
+    h_factor, cfl, _ = scheme_resolution(scheme or _schemes.WCSPH(), sph["h_factor"], sph["cfl"])
     return SceneSpec(
         name=scene_t["name"] or "scene", description=scene_t["description"], still_level=scene_t["still_level"],
         domain=_fields(DomainSpec, domain) if domain is not None else None,
@@ -1268,7 +1266,7 @@ def build(spec: SceneSpec) -> Scene:
         meta["fixed_walls_only"] = walls_only
     common = dict(h_factor=sph.h_factor, alpha=sph.alpha, nu=sph.nu, delta=sph.delta,
                   wall_viscosity=sph.wall_viscosity,
-                  # the builders' defaults: 0.3 dx for water only, 0.6 dx with moving blocks
+                  # the builders' defaults: the scheme's for water only, 0.6 dx with moving blocks
                   skin_factor=sph.skin_factor if sph.skin_factor is not None else (
                       0.6 if moving else sph.scheme.default_skin_factor),
                   rebuild_every=sph.rebuild_every, cfl=sph.cfl)
