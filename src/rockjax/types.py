@@ -92,6 +92,7 @@ class Status(enum.IntFlag):
     SUPPORT_EDGE_OVERFLOW = 32768  #: an FCP support set touches more edge directions than ``BlockConfig.support_edges``
     FCP_CROSS_OVERFLOW = 65536  #: an FCP round had more edge crosses than ``BlockConfig.fcp_crosses``
     SOLVER_NOT_CONVERGED = 131072  #: an implicit pressure solve (``DFSPH``) ended above its tolerance at its iteration cap
+    SLAB_OVERFLOW = 262144  #: a decomposed scene's owned, halo or migration buffer overflowed (``rockjax.decomposition``)
 
     @classmethod
     def growable(cls) -> "Status":

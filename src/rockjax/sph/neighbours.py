@@ -44,7 +44,7 @@ import numpy as np
 
 from ..types import Config, GatherForm, GridSpec, Kind, NeighbourList, Particles, Status
 
-__all__ = ["cell_coords", "search_grid", "range_capacity", "sort_by_cell", "build", "rebuild", "pair_geometry", "safe_norm", "wrap_positions",
+__all__ = ["cell_coords", "cell_order", "search_grid", "range_capacity", "sort_by_cell", "build", "rebuild", "pair_geometry", "safe_norm", "wrap_positions",
            "min_image", "transpose_sum", "take", "Pairs", "pairs", "Rows", "scan_rows", "wall_pairs"]
 
 
@@ -75,6 +75,13 @@ def segments(config: Config) -> list[tuple[int, int]]:
     nf, n = config.n_fluid, config.n_particles
     nb = config.n_block_particles
     return [(a, b) for a, b in ((0, nf), (nf, n - nb), (n - nb, n)) if b > a]
+
+
+def cell_order(x, kind, grid: GridSpec):
+    """The stable order [N] int32 that sorts particles at ``x`` [N, 3] by search sub-cell, padding
+    last: the key of ``sort_by_cell`` (an array sorted by it is left in place by a rebuild)."""
+    ids, _, _ = _ids(jax.lax.stop_gradient(x), kind, search_grid(grid))
+    return jnp.argsort(ids, stable=True).astype(jnp.int32)
 
 
 def sort_by_cell(particles: Particles, config: Config) -> Particles:

@@ -1,0 +1,455 @@
+"""One scene over many devices: slabs along x, halo exchange and migration with ``shard_map``.
+
+This module owns the domain decomposition of a scene's particles over a 1-D device ``Mesh``
+(axis ``AXIS``). It knows nothing of the physics: each device runs the unchanged
+``step.advance`` on a *local* scene (``Decomposition.local``, a ``Config`` whose fluid segment is
+the device's own particles plus two halo layers) and this module keeps the local scenes consistent,
+as jax-md's ``partition`` keeps a neighbour list: ``decompose`` allocates on the host,
+``make_sharded_rollout`` updates in jit, and overflow sets a status bit.
+
+Layout of a device's fluid segment (``owned + 2 halo`` slots, sorted by cell at each rebuild, so
+the three kinds are mixed; ``Slab.owned`` marks the device's own rows):
+
+* **owned**: fluid particles whose x lies in the device's slab ``[lo, hi)`` at the last rebuild
+  (``lo = -inf`` on the first device, ``hi = +inf`` on the last);
+* **halo**: copies of the neighbouring devices' owned particles within ``halo_width`` of the slab,
+  ``halo_layers (cutoff + skin)``: a row's momentum sum reads its neighbours' new pressures, a
+  wall neighbour's Adami pressure reads the fluid around that wall, and their new densities come
+  from the step's continuity sum over *their* neighbours: three chained pair passes, so three
+  layers for ``WCSPH`` with Adami walls (with two layers the trajectories of particles on a slab
+  bound differ from one device's by ~1e-11 of their acceleration per step). Their full records (position, velocity, density, acceleration, ...)
+  are copied from the owner with ``lax.ppermute`` at the start of **every** step, into the slots
+  fixed at the last rebuild, so the local Verlet list stays valid between rebuilds; the local
+  step's results on halo rows are discarded (overwritten at the next exchange).
+* padding (``Kind.PAD``): free slots.
+
+At a rebuild (at the start of each block of ``Config.rebuild_every`` steps, and when any device's
+displacement trigger fires, ``rollout.needs_rebuild`` reduced with ``lax.pmax``), all devices
+together: send the owned particles that left the slab to the neighbour (*migration*), compact
+the owned rows, choose and send the halo layers, sort the local fluid segment by cell, and build
+the local list (``step.refresh``). Walls are static: each device holds the walls within
+``halo_width + cutoff + 2 skin`` of its slab, chosen once on the host.
+
+Slab bounds are chosen on the host from the fluid's x quantiles (equal particle counts) or given;
+they stay fixed during a run. Buffers have fixed sizes (``owned``, ``halo``, ``migrate``); an
+overflow sets ``Status.SLAB_OVERFLOW`` and the run must be decomposed again with larger buffers
+(``decompose(capacity_factor=...)``).
+
+Scope: water and walls with an explicit scheme (``WCSPH``, ``SeedScheme``); DFSPH's pressure
+sweeps would need an exchange per sweep, and blocks (replicated, their fluid loads reduced with
+``psum``) are not decomposed here yet: ``decompose`` refuses both with a ValueError.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Callable, Optional, Sequence
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import Mesh, PartitionSpec as PSpec
+
+from .rollout import n_blocks_for, needs_rebuild
+from .sph.neighbours import cell_order
+from .step import advance, refresh
+from .types import Config, Kind, Params, State, Status, _pytree_dataclass
+
+__all__ = ["AXIS", "Decomposition", "Slab", "ShardedState", "decompose", "make_mesh", "make_sharded_rollout",
+           "sharded_prime", "gather_fluid", "slab_status"]
+
+AXIS = "slabs"  #: name of the device mesh axis the slabs are laid along
+
+
+@_pytree_dataclass
+class Slab:
+    """A device's bookkeeping (leaves per device; stacked along a leading device axis outside
+    ``shard_map``).
+
+    Attributes:
+        owned: [n_local] bool, rows of the local fluid segment this device owns.
+        send_l, send_r: [halo] int32, local rows sent each step to the left / right neighbour.
+        recv_l, recv_r: [halo] int32, local rows the left / right neighbour's rows are written to
+            (``n_local`` = none: dropped).
+        lo, hi: the slab's bounds along x [m] (-inf / +inf at the ends).
+        status: ``Status.SLAB_OVERFLOW`` when a buffer overflowed (int32).
+        migrated: particles this device sent to a neighbour since the start (int32).
+        halo_sent: rows sent at the last rebuild (both sides; int32).
+        owned_count: owned particles at the last rebuild (int32).
+    """
+
+    owned: jax.Array
+    send_l: jax.Array
+    send_r: jax.Array
+    recv_l: jax.Array
+    recv_r: jax.Array
+    lo: jax.Array
+    hi: jax.Array
+    status: jax.Array
+    migrated: jax.Array
+    halo_sent: jax.Array
+    owned_count: jax.Array
+
+
+@_pytree_dataclass
+class ShardedState:
+    """The local ``State`` and ``Slab`` of every device, stacked along a leading axis of length
+    ``Decomposition.n_slabs`` (the mesh axis)."""
+
+    state: State
+    slab: Slab
+
+
+@dataclasses.dataclass(frozen=True)
+class Decomposition:
+    """Static description of a decomposed scene (hashable).
+
+    Attributes:
+        config: the scene's own ``Config`` (one device).
+        local: each device's ``Config``: fluid segment ``owned + 2 halo`` slots, its wall window.
+        n_slabs: devices along x.
+        owned, halo, migrate: per-device buffer sizes (rows): owned particles, one halo layer,
+            migrants to one side per rebuild.
+        halo_width: the halo layer's width [m] (``halo_layers (cutoff + skin)``).
+        bounds: the interior slab bounds along x [m] (``n_slabs - 1`` values).
+        n_water: the scene's water particles (all devices together).
+    """
+
+    config: Config
+    local: Config
+    n_slabs: int
+    owned: int
+    halo: int
+    migrate: int
+    halo_width: float
+    bounds: tuple
+    n_water: int
+
+    @property
+    def n_local(self) -> int:
+        return self.local.n_fluid
+
+
+def _ceil8(v: float) -> int:
+    return max(8, int(math.ceil(v / 8.0)) * 8)
+
+
+def make_mesh(n_slabs: int, devices: Optional[Sequence] = None) -> Mesh:
+    """A 1-D ``Mesh`` of the first ``n_slabs`` devices (axis ``AXIS``); ValueError if fewer exist."""
+    devs = list(jax.devices() if devices is None else devices)
+    if len(devs) < n_slabs:
+        raise ValueError(f"make_mesh: n_slabs = {n_slabs} needs as many devices, {len(devs)} available "
+                         "(on the CPU: XLA_FLAGS=--xla_force_host_platform_device_count=N before JAX starts)")
+    return Mesh(np.asarray(devs[:n_slabs]), (AXIS,))
+
+
+def decompose(scene, n_slabs: int, *, bounds: Optional[Sequence[float]] = None, capacity_factor: float = 1.5,
+              halo_layers: int = 3):
+    """Split a scene's particles into ``n_slabs`` slabs along x (host side).
+
+    Args:
+        scene: a ``Scene`` with water and walls (no blocks), an explicit fluid scheme and x not
+            periodic.
+        n_slabs: devices along x (>= 1).
+        bounds: the ``n_slabs - 1`` interior bounds along x [m], increasing; default: the fluid's
+            x quantiles (equal counts). Each interior slab must be at least ``halo_width`` wide.
+        capacity_factor: buffer sizes as a multiple of what the initial state needs (>= 1): the
+            owned buffer must also hold the particles that flow into the slab during the run.
+        halo_layers: the halo's width in list radii ``cutoff + skin``: the depth of the step's
+            chained pair passes (module docstring; 3 for WCSPH with Adami walls).
+
+    Returns:
+        ``(Decomposition, ShardedState)``: the static description and the stacked initial states
+        (unprimed; ``sharded_prime`` builds the lists and fills the accelerations).
+    """
+    from .scenes.base import empty_neighbours
+    from .sph.schemes import DFSPH
+
+    config, state = scene.config, scene.state
+    n_slabs = int(n_slabs)
+    if n_slabs < 1:
+        raise ValueError(f"decompose: n_slabs must be >= 1 (got {n_slabs})")
+    if not capacity_factor >= 1.0:
+        raise ValueError(f"decompose: capacity_factor must be >= 1 (got {capacity_factor})")
+    if config.blocks is not None:
+        raise ValueError("decompose: the scene has blocks; a decomposed scene holds water and walls only "
+                         "(run scenes with blocks on one device)")
+    if config.n_fluid == 0:
+        raise ValueError("decompose: the scene has no water to decompose")
+    if isinstance(config.scheme, DFSPH):
+        raise ValueError("decompose: Config.scheme DFSPH needs a halo exchange per pressure sweep; decompose "
+                         "scenes with an explicit scheme (WCSPH, SeedScheme)")
+    if config.grid.periodic[0]:
+        raise ValueError("decompose: the grid is periodic along x; slabs are cut along a non-periodic x")
+    if state.particles.solver is not None or state.particles.body is not None:
+        raise ValueError("decompose: the particles carry solver or block fields; decompose a water-and-walls scene")
+
+    P = jax.tree_util.tree_map(np.asarray, state.particles)
+    nf = config.n_fluid
+    fluid = P.kind[:nf] == Kind.FLUID
+    xf = P.x[:nf][fluid, 0]
+    if not (isinstance(halo_layers, int) and halo_layers >= 1):
+        raise ValueError(f"decompose: halo_layers must be an integer >= 1 (got {halo_layers!r})")
+    W = halo_layers * (config.cutoff + config.skin)
+    if bounds is None:
+        b = np.quantile(xf, np.arange(1, n_slabs) / n_slabs) if n_slabs > 1 else np.zeros(0)
+    else:
+        b = np.asarray(bounds, float).reshape(-1)
+        if b.size != n_slabs - 1 or np.any(np.diff(b) <= 0):
+            raise ValueError(f"decompose: bounds must be n_slabs - 1 = {n_slabs - 1} increasing x values (got {list(b)})")
+    widths = np.diff(b)
+    if np.any(widths < W):
+        k = int(np.argmin(widths))
+        raise ValueError(f"decompose: slab {k + 1} is {widths[k]:.4g} m wide, under the halo width "
+                         f"{halo_layers} (cutoff + skin) = {W:.4g} m; use fewer slabs or pass wider bounds=")
+    lo = np.concatenate([[-np.inf], b])
+    hi = np.concatenate([b, [np.inf]])
+
+    def in_slab(x, k, pad=0.0):
+        return (x >= lo[k] - pad) & (x < hi[k] + pad)
+
+    owned_n = [int(in_slab(xf, k).sum()) for k in range(n_slabs)]
+    halo_n = [max(int((in_slab(xf, k) & (xf >= hi[k] - W)).sum()), int((in_slab(xf, k) & (xf < lo[k] + W)).sum()))
+              for k in range(n_slabs)]
+    C = min(_ceil8(capacity_factor * max(owned_n)), _ceil8(len(xf)))
+    H = _ceil8(capacity_factor * max(max(halo_n), 1))
+    M = H
+
+    wall_x = P.x[nf:, 0]
+    Ww = W + config.cutoff + 2.0 * config.skin
+    windows = [np.nonzero(in_slab(wall_x, k, Ww))[0] for k in range(n_slabs)]
+    n_wall = max(len(w) for w in windows) if config.n_wall else 0
+    n_local = C + 2 * H
+    local = config.replace(n_fluid=n_local, n_wall=n_wall)
+
+    fluid_idx = np.nonzero(fluid)[0]
+    stacked = []
+    for k in range(n_slabs):
+        mine = fluid_idx[in_slab(xf, k)]
+        rows = np.concatenate([mine, np.full(n_local - len(mine), fluid_idx[0])])
+        wrows = nf + windows[k]
+        wrows = np.concatenate([wrows, np.full(n_wall - len(wrows), wrows[0] if len(wrows) else nf)]).astype(int)
+        take = np.concatenate([rows, wrows]).astype(int)
+        Pk = jax.tree_util.tree_map(lambda a: np.asarray(a)[take], P)
+        kind = Pk.kind.copy()
+        kind[len(mine):n_local] = Kind.PAD
+        kind[n_local + len(windows[k]):] = Kind.PAD
+        pid = Pk.pid.copy()
+        pid[kind == Kind.PAD] = -1
+        Pk = Pk.replace(kind=kind, pid=pid)
+        Pk = jax.tree_util.tree_map(jnp.asarray, Pk)
+        owned = np.zeros(n_local, bool)
+        owned[:len(mine)] = True
+        st = State(step=jnp.asarray(state.step), particles=Pk, nbrs=empty_neighbours(local, Pk.x),
+                   status=jnp.zeros((), jnp.int32))
+        i32 = lambda v: jnp.asarray(v, jnp.int32)
+        none = jnp.full((H,), n_local, jnp.int32)
+        sl = Slab(owned=jnp.asarray(owned), send_l=jnp.zeros((H,), jnp.int32), send_r=jnp.zeros((H,), jnp.int32),
+                  recv_l=none, recv_r=none, lo=jnp.asarray(lo[k], Pk.x.dtype), hi=jnp.asarray(hi[k], Pk.x.dtype),
+                  status=i32(0), migrated=i32(0), halo_sent=i32(0), owned_count=i32(len(mine)))
+        stacked.append(ShardedState(state=st, slab=sl))
+    ss = jax.tree_util.tree_map(lambda *a: jnp.stack(a), *stacked)
+    dec = Decomposition(config=config, local=local, n_slabs=n_slabs, owned=C, halo=H, migrate=M, halo_width=W,
+                        bounds=tuple(float(v) for v in b), n_water=int(len(xf)))
+    return dec, ss
+
+
+# ------------------------------------------------------------------------------------------------
+# In-jit pieces (per device, inside shard_map)
+# ------------------------------------------------------------------------------------------------
+
+
+def _rows(tree, idx):
+    return jax.tree_util.tree_map(lambda a: a[idx], tree)
+
+
+def _concat(*trees):
+    return jax.tree_util.tree_map(lambda *a: jnp.concatenate(a), *trees)
+
+
+def _compact(mask, size: int):
+    """The first ``size`` indices where ``mask`` holds (0 past them), their validity, the count."""
+    idx = jnp.nonzero(mask, size=size, fill_value=0)[0].astype(jnp.int32)
+    count = jnp.sum(mask.astype(jnp.int32))
+    return idx, jnp.arange(size) < count, count
+
+
+def _shift(tree, n: int, to_right: bool):
+    """Send ``tree`` to the right (device d -> d + 1) or left neighbour; the end device receives zeros."""
+    perm = [(d, d + 1) for d in range(n - 1)] if to_right else [(d + 1, d) for d in range(n - 1)]
+    if not perm:
+        return jax.tree_util.tree_map(jnp.zeros_like, tree)
+    return jax.tree_util.tree_map(lambda a: jax.lax.ppermute(a, AXIS, perm), tree)
+
+
+def _padded(rows, valid):
+    """``rows`` with the invalid ones turned into padding: ``Kind.PAD``, pid -1 and density 1 (a
+    row received from beyond the end device is zeros, and a masked ``2 / (rho_i + rho_j)`` of two
+    zero densities is inf, whose zero cotangent is NaN)."""
+    return rows.replace(kind=jnp.where(valid, rows.kind, Kind.PAD), pid=jnp.where(valid, rows.pid, -1),
+                        rho=jnp.where(valid, rows.rho, 1.0))
+
+
+def _split(P, nf: int):
+    return _rows(P, slice(0, nf)), _rows(P, slice(nf, None))
+
+
+def _rebuild(st: State, sl: Slab, dec: Decomposition):
+    """Migrate, choose and send the halo layers, sort by cell and rebuild the local list."""
+    cfg, n = dec.local, dec.n_slabs
+    C, H, M, W = dec.owned, dec.halo, dec.migrate, dec.halo_width
+    nf = cfg.n_fluid
+    F, walls = _split(st.particles, nf)
+    x0 = jax.lax.stop_gradient(F.x[:, 0])
+    own = sl.owned & (F.kind != Kind.PAD)
+    go_l, go_r = own & (x0 < sl.lo), own & (x0 >= sl.hi)
+    stay = own & ~go_l & ~go_r
+    il, vl, nl = _compact(go_l, M)
+    ir, vr, nr = _compact(go_r, M)
+    from_r, from_r_ok = _shift((_rows(F, il), vl), n, to_right=False)
+    from_l, from_l_ok = _shift((_rows(F, ir), vr), n, to_right=True)
+    i_s, v_s, _ = _compact(stay, C)
+    cand = _concat(_rows(F, i_s), from_l, from_r)
+    cand_ok = jnp.concatenate([v_s, from_l_ok, from_r_ok])
+    io, vo, n_own = _compact(cand_ok, C)
+    O = _padded(_rows(cand, io), vo)
+
+    xo = jax.lax.stop_gradient(O.x[:, 0])
+    isr, vsr, nsr = _compact(vo & (xo >= sl.hi - W), H)
+    isl, vsl, nsl = _compact(vo & (xo < sl.lo + W), H)
+    hl, hl_ok = _shift((_rows(O, isr), vsr), n, to_right=True)  # my left halo: the left neighbour's right layer
+    hr, hr_ok = _shift((_rows(O, isl), vsl), n, to_right=False)
+    L = _concat(O, _padded(hl, hl_ok), _padded(hr, hr_ok))
+    owned = jnp.concatenate([vo, jnp.zeros((2 * H,), bool)])
+
+    order = cell_order(jax.lax.stop_gradient(L.x), L.kind, cfg.grid)
+    inv = jnp.zeros((nf,), jnp.int32).at[order].set(jnp.arange(nf, dtype=jnp.int32))
+    L, owned = _rows(L, order), owned[order]
+    slots = jnp.arange(H, dtype=jnp.int32)
+    recv_l = jnp.where(hl_ok, inv[C + slots], nf)
+    recv_r = jnp.where(hr_ok, inv[C + H + slots], nf)
+    over = (nl > M) | (nr > M) | (n_own > C) | (nsr > H) | (nsl > H)
+    sl = sl.replace(owned=owned, send_l=inv[isl], send_r=inv[isr], recv_l=recv_l, recv_r=recv_r,
+                    status=sl.status | jnp.where(over, Status.SLAB_OVERFLOW, 0).astype(jnp.int32),
+                    migrated=sl.migrated + jnp.minimum(nl, M) + jnp.minimum(nr, M),
+                    halo_sent=jnp.minimum(nsr, H) + jnp.minimum(nsl, H), owned_count=n_own)
+    st = refresh(st.replace(particles=_concat(L, walls)), cfg)  # the fluid segment is sorted: its order stays
+    return st, sl
+
+
+def _exchange(st: State, sl: Slab, dec: Decomposition) -> State:
+    """Copy the neighbours' current records of this device's halo rows (every step)."""
+    nf, n = dec.local.n_fluid, dec.n_slabs
+    F, walls = _split(st.particles, nf)
+    hl = _shift(_rows(F, sl.send_r), n, to_right=True)
+    hr = _shift(_rows(F, sl.send_l), n, to_right=False)
+    F = jax.tree_util.tree_map(lambda a, b, c: a.at[sl.recv_l].set(b, mode="drop").at[sl.recv_r].set(c, mode="drop"),
+                               F, hl, hr)
+    return st.replace(particles=_concat(F, walls))
+
+
+def _local_prime(st: State, sl: Slab, params: Params, dec: Decomposition):
+    st, sl = _rebuild(st, sl, dec)
+    st = _exchange(st, sl, dec)
+    cfg = dec.local
+    return cfg.coupling_method.prime(st, params, cfg), sl
+
+
+def _on_mesh(fn, dec: Decomposition, mesh: Optional[Mesh], out_specs):
+    """``fn(local ShardedState, params)`` run per device by ``shard_map`` over the stacked state."""
+    mesh = make_mesh(dec.n_slabs) if mesh is None else mesh
+
+    def per_device(ss, params):
+        local = jax.tree_util.tree_map(lambda a: a[0], ss)
+        out = fn(local, params)
+        return jax.tree_util.tree_map(lambda a: a[None], out)
+
+    return jax.shard_map(per_device, mesh=mesh, in_specs=(PSpec(AXIS), PSpec()), out_specs=out_specs,
+                         check_vma=False)
+
+
+def sharded_prime(dec: Decomposition, ss: ShardedState, params: Params, *, mesh: Optional[Mesh] = None) -> ShardedState:
+    """Rebuild every device's slab and list and fill the initial accelerations (``step.prime``'s
+    job, per device)."""
+
+    def fn(local, p):
+        st, sl = _local_prime(local.state, local.slab, p, dec)
+        return ShardedState(state=st, slab=sl)
+
+    return jax.jit(_on_mesh(fn, dec, mesh, PSpec(AXIS)))(ss, params)
+
+
+def make_sharded_rollout(dec: Decomposition, n_steps: int, *, mesh: Optional[Mesh] = None, checkpoint: bool = True,
+                         reduce: Optional[Callable] = None, rebuild_on_displacement: bool = True):
+    """Build ``run(sharded_state, params)``: ``n_steps`` steps of every slab (``n_steps`` a multiple
+    of ``Config.rebuild_every``), the rollout's schedule (a rebuild at each block's start and, with
+    ``rebuild_on_displacement``, when any device's trigger fires).
+
+    ``reduce``: optional ``reduce(state, owned, params) -> scalar`` evaluated on each device's final
+    local ``State`` with its owned mask ([n_local] bool); the per-device values are summed
+    (``psum``) and ``run`` returns ``(sharded_state, total)`` (a differentiable scalar:
+    ``jax.grad`` goes through the sharded rollout). Without it ``run`` returns the sharded state.
+    ``checkpoint``: ``jax.checkpoint`` around each step (reverse-mode memory one State per step).
+    """
+    cfg = dec.local
+    n_blocks = n_blocks_for(dec.config, n_steps)
+    k = cfg.rebuild_every
+
+    def one_step(carry, params):
+        st, sl = carry
+        if rebuild_on_displacement:
+            go = jax.lax.pmax(needs_rebuild(st, cfg).astype(jnp.int32), AXIS) > 0
+            st, sl = jax.lax.cond(go, lambda a: _rebuild(*a, dec), lambda a: a, (st, sl))
+        st = _exchange(st, sl, dec)
+        return advance(st, params, cfg), sl
+
+    if checkpoint:
+        one_step = jax.checkpoint(one_step, prevent_cse=False)
+
+    def fn(local, params):
+        def block(carry, _):
+            carry = _rebuild(*carry, dec)
+            carry, _ = jax.lax.scan(lambda c, _: (one_step(c, params), None), carry, None, length=k)
+            return carry, None
+
+        (st, sl), _ = jax.lax.scan(block, (local.state, local.slab), None, length=n_blocks)
+        out = ShardedState(state=st, slab=sl)
+        if reduce is None:
+            return out
+        return out, jax.lax.psum(reduce(st, sl.owned, params), AXIS)
+
+    specs = PSpec(AXIS) if reduce is None else (PSpec(AXIS), PSpec())
+    mapped = _on_mesh(fn, dec, mesh, specs)
+    if reduce is None:
+        return mapped
+
+    def run(ss, params):
+        out, total = mapped(ss, params)
+        return out, total[0]
+
+    return run
+
+
+def slab_status(ss: ShardedState) -> int:
+    """The OR of every device's ``State.status`` and ``Slab.status`` bits (host int)."""
+    bits = np.bitwise_or.reduce(np.asarray(ss.state.status)) | np.bitwise_or.reduce(np.asarray(ss.slab.status))
+    return int(bits)
+
+
+def gather_fluid(dec: Decomposition, ss: ShardedState) -> dict:
+    """The owned fluid rows of every device on the host, in the scene's original particle order
+    (``pid``): ``x`` [n, 3], ``v`` [n, 3], ``rho`` [n], ``p`` [n] and ``pid`` [n]; ValueError if
+    a particle is missing or owned twice (the decomposition lost track of it)."""
+    P = ss.state.particles
+    nf = dec.n_local
+    owned = np.asarray(ss.slab.owned)
+    pid = np.asarray(P.pid)[:, :nf][owned]
+    order = np.argsort(pid, kind="stable")
+    out = {"pid": pid[order]}
+    for name in ("x", "v", "rho", "p"):
+        out[name] = np.asarray(getattr(P, name))[:, :nf][owned][order]
+    if len(np.unique(pid)) != len(pid) or len(pid) != dec.n_water:
+        raise ValueError(f"gather_fluid: {len(pid)} owned rows ({len(np.unique(pid))} distinct) for "
+                         f"{dec.n_water} water particles: the decomposition lost track of some")
+    return out
