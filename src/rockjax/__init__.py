@@ -10,12 +10,13 @@ The public API, re-exported explicitly:
 * ``scenes`` (built-in scene builders returning a ``Scene``), ``observables``, ``io``;
 * the physics packages: ``blocks`` (3D-DDA rock blocks), ``coupling`` (fluid-block exchange);
 * ``calibrate`` (differentiable losses, optax calibration), ``gradcheck`` (is a gradient good at
-  the scale a calibration moves?) and ``ensembles`` (vmap / sharded runs).
+  the scale a calibration moves?) and ``ensembles`` (vmap / sharded runs);
+* ``decomposition``: one scene over many devices (slabs along x, halo exchange, ``shard_map``).
 """
 
 __version__ = "0.1.0"
 
-from . import blocks, calibrate, coupling, ensembles, io, observables, scenes, sph
+from . import blocks, calibrate, coupling, decomposition, ensembles, io, observables, scenes, sph
 from .gradcheck import gradcheck
 from .driver import Interrupted, Result, SimulationError, simulate
 from .rollout import make_rollout, rollout
@@ -37,4 +38,5 @@ __all__ = [
     "make_step", "prime", "make_rollout", "rollout",
     "simulate", "Result", "SimulationError", "Interrupted",
     "Scene", "scenes", "observables", "io", "sph", "blocks", "coupling", "calibrate", "ensembles", "gradcheck",
+    "decomposition",
 ]
