@@ -1513,8 +1513,44 @@ def sec_wedge_dfsph(doc: Doc):
                                          "smooth run-up"], rows))
 
 
+def sec_slabs(doc: Doc):
+    doc.h("One scene over many devices (issue 47): slabs, halo volume, weak-scaling estimate")
+    recs = doc.records("slabs.jsonl", "python experiments/bench_slabs.py --devices 1 2 4 --steps 64 "
+                       "--out experiments/results/slabs.jsonl")
+    if recs is None:
+        return
+    doc.p("`rockjax.decomposition`: the 3D dam break weak-scaled (a 0.5 m long, 0.5 m wide, 1.0 m high column per "
+          "device, dx = 0.5 / nx), cut along x into one slab per device (`shard_map` over forced CPU devices, "
+          "`--xla_force_host_platform_device_count=D`); WCSPH, float32, a compiled run from the primed state. The "
+          "forced devices share this machine's 2 cores, so the wall time per step is the total work of all devices, "
+          "not a parallel speed-up; what carries to real devices is the per-device rows and the halo volume. "
+          "Halo: 3 list radii (3 (cutoff + skin) = 8.7 dx) on each inner side; the local step runs every row of its "
+          "buffers (owned capacity + 2 halo capacities, 1.5x the initial counts), padding included.")
+    rows = [[r.get("date"), r.get("devices"), r.get("n_water"), r.get("owned"), r.get("local_rows"), r.get("halo_rows"),
+             r.get("halo_fraction"), r.get("halo_mb_per_step"), r.get("ms_per_step"), r.get("water_particle_steps_per_s"),
+             r.get("sim_s_per_wall_s"), r.get("overhead_ratio"), r.get("status"), r.get("error")]
+            for r in recs if r.get("kind") == "case"]
+    doc.p(table(["date", "devices", "water", "owned / device", "local rows / device", "halo rows sent / step",
+                 "halo / owned", "halo MB / step", "ms / step (all devices, 2 cores)", "water particle-steps/s",
+                 "sim s / wall s", "1 slab / plain rollout", "status", "error"], rows))
+    for r in recs:
+        if r.get("kind") != "estimate":
+            continue
+        doc.p(f"**Estimate, not a measurement** ({r.get('date')}): a long channel whose cross-section holds "
+              f"{fmt(r.get('cross_section'))} particles per x layer (e.g. 200 m x 50 m at dx = 1 m); per-step time = "
+              f"{fmt(r.get('capacity_factor'))} (owned + halo rows) / {fmt(r.get('gpu_particle_steps_per_s'))} "
+              f"particle-steps/s (one H200, WCSPH f32 at 1M, section GPU) + 2 exchanges x (latency + halo bytes / "
+              f"bandwidth), {fmt(r.get('row_bytes'))} bytes per particle record; links "
+              + ", ".join(f"{k} {fmt(v['bandwidth_Bps'] / 1e9)} GB/s, {fmt(v['latency_s'] * 1e6)} us"
+                          for k, v in (r.get("links") or {}).items()) + ".")
+        rows = [[x["gpus"], fmt(x["particles"]), fmt(x["per_device"]), fmt(x["slab_dx"]), fmt(x["halo_rows"]), x["link"],
+                 x["ms_compute"], x["ms_exchange"], x["efficiency"]] for x in r.get("rows") or []]
+        doc.p(table(["GPUs", "particles", "per GPU", "slab length / dx", "halo rows / GPU", "link", "ms compute",
+                     "ms exchange", "weak-scaling efficiency vs 1 GPU"], rows))
+
+
 SECTIONS = [sec_sph, sec_driver, sec_checkpoint, sec_skin, sec_time_vs_error, sec_peers, sec_dfsph, sec_wedge_dfsph, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
-            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_redesign, sec_full_event, sec_waves, sec_restitution_phase, sec_stress, sec_soak, sec_rock_slope]
+            sec_wedge, sec_held_box, sec_wall_consistency, sec_wedge_inside, sec_piston_walls, sec_energy_creep, sec_seed_rest, sec_hydrostatic_rest, sec_sph_ab, sec_flags, sec_redesign, sec_full_event, sec_waves, sec_restitution_phase, sec_stress, sec_soak, sec_rock_slope, sec_slabs]
 
 
 def stress_record(junits: list[str], *, wall_s: float | None) -> dict:
