@@ -57,7 +57,7 @@ from .step import advance, refresh
 from .types import Config, Kind, Params, State, Status, _pytree_dataclass
 
 __all__ = ["AXIS", "Decomposition", "Slab", "ShardedState", "decompose", "make_mesh", "make_sharded_rollout",
-           "sharded_prime", "gather_fluid", "slab_status"]
+           "sharded_prime", "gather_fluid", "gather_state", "run_sharded", "slab_status"]
 
 AXIS = "slabs"  #: name of the device mesh axis the slabs are laid along
 
@@ -271,7 +271,7 @@ def _concat(*trees):
 def _compact(mask, size: int):
     """The first ``size`` indices where ``mask`` holds (0 past them), their validity, the count."""
     idx = jnp.nonzero(mask, size=size, fill_value=0)[0].astype(jnp.int32)
-    count = jnp.sum(mask.astype(jnp.int32))
+    count = jnp.sum(mask, dtype=jnp.int32)
     return idx, jnp.arange(size) < count, count
 
 
@@ -453,3 +453,95 @@ def gather_fluid(dec: Decomposition, ss: ShardedState) -> dict:
         raise ValueError(f"gather_fluid: {len(pid)} owned rows ({len(np.unique(pid))} distinct) for "
                          f"{dec.n_water} water particles: the decomposition lost track of some")
     return out
+
+
+def gather_state(dec: Decomposition, ss: ShardedState, scene) -> State:
+    """One device's ``State`` of the decomposed scene: the owned water rows of every device (all
+    their fields) in the scene's particle order, each wall's record from the device whose slab
+    holds it (the others are ``scene``'s), an empty list (a rollout's first rebuild lists it). The scene's fluid
+    segment must hold water only (as ``decompose`` lays it out)."""
+    from .scenes.base import empty_neighbours
+
+    cfg = dec.config
+    if cfg.n_fluid != dec.n_water:
+        raise ValueError("gather_state: the scene's fluid segment holds padding; gather_fluid returns its water")
+    P = ss.state.particles
+    nf = dec.n_local
+    owned = np.asarray(ss.slab.owned)
+    pid = np.asarray(P.pid)[:, :nf][owned]
+    if len(np.unique(pid)) != len(pid) or len(pid) != dec.n_water:
+        raise ValueError(f"gather_state: {len(pid)} owned rows for {dec.n_water} water particles")
+    order = np.argsort(pid, kind="stable")
+    G = scene.state.particles
+
+    def merge(a, g):
+        water = np.asarray(a)[:, :nf][owned][order]
+        return jnp.concatenate([jnp.asarray(water, g.dtype), g[cfg.n_fluid:]])
+
+    Q = jax.tree_util.tree_map(merge, P, G)
+    # the walls' state (the Adami density and pressure that the next step's sums read) from the device
+    # whose slab holds each wall, whose fluid around it is complete
+    kind, x = np.asarray(P.kind)[:, nf:], np.asarray(P.x)[:, nf:, 0]
+    lo, hi = np.asarray(ss.slab.lo)[:, None], np.asarray(ss.slab.hi)[:, None]
+    mine = (kind == Kind.WALL) & (x >= lo) & (x < hi)
+    wpid = np.asarray(P.pid)[:, nf:][mine]
+    Q = jax.tree_util.tree_map(lambda q, a: q.at[wpid].set(jnp.asarray(np.asarray(a)[:, nf:][mine], q.dtype)), Q, P)
+    step = jnp.asarray(np.asarray(ss.state.step)[0], jnp.int32)
+    return State(step=step, particles=Q, nbrs=empty_neighbours(cfg, Q.x), status=jnp.zeros((), jnp.int32))
+
+
+def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int] = None, capacity_factor: float = 1.5,
+                max_regrows: int = 6, mesh: Optional[Mesh] = None, **decompose_kw):
+    """Host driver: decompose ``scene`` over ``n_slabs`` devices and run ``n_steps`` steps in chunks
+    of ``chunk_steps`` (multiples of ``Config.rebuild_every``; default one chunk). After each
+    chunk the status bits are read: a buffer overflow (``SLAB_OVERFLOW``, or a neighbour-list
+    bit the one-device driver grows) re-decomposes the chunk's start state with larger buffers
+    (``capacity_factor`` x 1.5, the bounds from the particles' counts then; the list capacities as
+    ``driver`` grows them) and reruns the chunk, from the same particle records (so the run stays
+    the one-device trajectory to rounding);
+    any other bit raises ``driver.SimulationError`` naming the step and the cause.
+
+    Returns ``(Decomposition, ShardedState, regrows)``.
+    """
+    from .driver import SimulationError, _grow
+
+    config = scene.config
+    k = config.rebuild_every
+    n_blocks_for(config, n_steps)
+    chunk = n_steps if chunk_steps is None else int(chunk_steps)
+    if chunk < 1 or chunk % k:
+        raise ValueError(f"run_sharded: chunk_steps must be a positive multiple of Config.rebuild_every ({k}); got {chunk_steps}")
+    growable = int(Status.growable()) | int(Status.SLAB_OVERFLOW)
+    dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **decompose_kw)
+    ss = sharded_prime(dec, ss, scene.params, mesh=mesh)
+    runs = {}
+    done = regrows = 0
+    while done < n_steps:
+        n = min(chunk, n_steps - done)
+        key = (dec, n)
+        if key not in runs:
+            runs[key] = jax.jit(make_sharded_rollout(dec, n, mesh=mesh, checkpoint=False))
+        out = runs[key](ss, scene.params)
+        bits = slab_status(out)
+        if bits & ~growable:
+            step = int(np.asarray(ss.state.step)[0])
+            raise SimulationError(f"decomposed run stopped in steps {step}-{step + n}: {Status.describe(bits & ~growable)}",
+                                  step=step, status=bits)
+        if bits:
+            regrows += 1
+            if regrows > max_regrows:
+                raise SimulationError(f"run_sharded: gave up after {max_regrows} regrowths ({Status.describe(bits)})",
+                                      step=int(np.asarray(ss.state.step)[0]), status=bits)
+            start = gather_state(dec, ss, scene)
+            nb = out.state.nbrs
+            probe = start.replace(nbrs=start.nbrs.replace(
+                max_count=jnp.max(nb.max_count), max_run=jnp.max(nb.max_run),
+                max_wall_count=jnp.max(nb.max_wall_count), max_body_count=jnp.max(nb.max_body_count)))
+            config, _ = _grow(config, k, probe, bits & int(Status.growable()) & ~int(Status.NEIGHBOUR_STALE))
+            if bits & Status.SLAB_OVERFLOW:
+                capacity_factor *= 1.5
+            scene = scene.replace(config=config, state=start)
+            dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **decompose_kw)
+            continue  # not primed again: the records carry their accelerations; the chunk's first rebuild lists them
+        ss, done = out, done + n
+    return dec, ss, regrows

@@ -10,6 +10,9 @@ dx 0.02 m, 3840 water particles) cut into four slabs of equal counts along x:
   particles' initial order differ by 2e-16 m / 6e-15 m/s, and a 2-layer halo, which misses the
   third chained pair pass, gave 3e-10 m / 2e-8 m/s on a similar case); particles migrate between
   slabs; no status bit;
+* the host driver ``run_sharded`` with buffers sized to the initial counts (``capacity_factor=1``)
+  in chunks of 40 steps: it regrows at least once and still equals one device's run to the same
+  bounds;
 * ``jax.grad`` of a position functional after 40 steps w.r.t. every ``Params`` leaf, sharded vs
   one device: equal to 1e-9 relative; and central finite differences of the sharded forward in
   the artificial viscosity alpha at two relative steps (1e-2, 1e-3) agree with each other and
@@ -68,6 +71,12 @@ out.update(dx=float(np.abs(g["x"] - x1).max()), dv=float(np.abs(g["v"] - v1).max
            moved=float(np.abs(x1 - x0).max()), vmax=float(np.abs(v1).max()),
            migrated=np.asarray(sh.slab.migrated).tolist(), status=D.slab_status(sh) | int(ref.status))
 
+# the host driver: capacity_factor 1.0 leaves no room for the particles that flow into a slab
+dec2, sh2, regrows = D.run_sharded(sc, 4, 200, chunk_steps=40, capacity_factor=1.0)
+g2 = D.gather_fluid(dec2, sh2)
+out.update(regrows=regrows, dx_regrow=float(np.abs(g2["x"] - x1).max()), dv_regrow=float(np.abs(g2["v"] - v1).max()),
+           step_regrow=int(np.asarray(sh2.state.step)[0]), status_regrow=D.slab_status(sh2))
+
 # gradients
 n = 40
 def functional(x, w):
@@ -117,6 +126,17 @@ def test_sharded_trajectory_equals_one_device(sharded):
     assert r["dv"] < 1e-10, r
 
 
+def test_run_sharded_regrows_and_keeps_the_trajectory(sharded):
+    """``run_sharded`` with buffers sized exactly to the initial counts: a slab overflows when water
+    flows into it, the chunk is re-decomposed with larger buffers and rerun, and the run still
+    equals one device's to rounding (the re-decomposed records carry their accelerations and the
+    walls' pressures)."""
+    r = sharded
+    assert r["regrows"] >= 1, r
+    assert r["step_regrow"] == 200 and r["status_regrow"] == 0, r
+    assert r["dx_regrow"] < 1e-12 and r["dv_regrow"] < 1e-10, r
+
+
 def test_sharded_gradient_equals_one_device(sharded):
     r = sharded
     assert r["n_leaves"] >= 6, r
@@ -142,6 +162,8 @@ def test_decompose_refuses_bad_input(small):
         D.decompose(small, 1, capacity_factor=0.5)
     with pytest.raises(ValueError, match="halo_layers"):
         D.decompose(small, 1, halo_layers=0)
+    with pytest.raises(ValueError, match="chunk_steps"):
+        D.run_sharded(small, 1, 16, chunk_steps=5)
     dfsph = dam_break(dx=0.05, column_length=0.8, column_height=0.3, column_width=0.3, tank_length=1.2,
                       tank_width=0.4, scheme=DFSPH())
     with pytest.raises(ValueError, match="DFSPH"):
