@@ -35,9 +35,13 @@ they stay fixed during a run. Buffers have fixed sizes (``owned``, ``halo``, ``m
 overflow sets ``Status.SLAB_OVERFLOW`` and the run must be decomposed again with larger buffers
 (``decompose(capacity_factor=...)``).
 
-Scope: water and walls with an explicit scheme (``WCSPH``, ``SeedScheme``); DFSPH's pressure
-sweeps would need an exchange per sweep, and blocks (replicated, their fluid loads reduced with
-``psum``) are not decomposed here yet: ``decompose`` refuses both with a ValueError.
+Blocks are few: every device holds all of them (and all the particles they carry, the tail of
+its wall segment) and advances them identically; each device's fluid loads count its owned rows
+only (``Particles.owned``, read by the couplings' reductions) and are summed over the devices
+(``lax.psum``) after each fluid step, so every device applies the same loads.
+
+Scope: an explicit scheme (``WCSPH``, ``SeedScheme``); DFSPH's pressure sweeps would need an
+exchange per sweep: ``decompose`` refuses it with a ValueError.
 """
 
 from __future__ import annotations
@@ -149,7 +153,7 @@ def decompose(scene, n_slabs: int, *, bounds: Optional[Sequence[float]] = None, 
     """Split a scene's particles into ``n_slabs`` slabs along x (host side).
 
     Args:
-        scene: a ``Scene`` with water and walls (no blocks), an explicit fluid scheme and x not
+        scene: a ``Scene`` with water (and walls, blocks), an explicit fluid scheme and x not
             periodic.
         n_slabs: devices along x (>= 1).
         bounds: the ``n_slabs - 1`` interior bounds along x [m], increasing; default: the fluid's
@@ -172,9 +176,6 @@ def decompose(scene, n_slabs: int, *, bounds: Optional[Sequence[float]] = None, 
         raise ValueError(f"decompose: n_slabs must be >= 1 (got {n_slabs})")
     if not capacity_factor >= 1.0:
         raise ValueError(f"decompose: capacity_factor must be >= 1 (got {capacity_factor})")
-    if config.blocks is not None:
-        raise ValueError("decompose: the scene has blocks; a decomposed scene holds water and walls only "
-                         "(run scenes with blocks on one device)")
     if config.n_fluid == 0:
         raise ValueError("decompose: the scene has no water to decompose")
     if isinstance(config.scheme, DFSPH):
@@ -182,8 +183,8 @@ def decompose(scene, n_slabs: int, *, bounds: Optional[Sequence[float]] = None, 
                          "scenes with an explicit scheme (WCSPH, SeedScheme)")
     if config.grid.periodic[0]:
         raise ValueError("decompose: the grid is periodic along x; slabs are cut along a non-periodic x")
-    if state.particles.solver is not None or state.particles.body is not None:
-        raise ValueError("decompose: the particles carry solver or block fields; decompose a water-and-walls scene")
+    if state.particles.solver is not None:
+        raise ValueError("decompose: the particles carry an implicit solver's record; decompose an explicit scheme's scene")
 
     P = jax.tree_util.tree_map(np.asarray, state.particles)
     nf = config.n_fluid
@@ -216,10 +217,12 @@ def decompose(scene, n_slabs: int, *, bounds: Optional[Sequence[float]] = None, 
     H = _ceil8(capacity_factor * max(max(halo_n), 1))
     M = H
 
-    wall_x = P.x[nf:, 0]
+    nb = config.n_block_particles  # carried by blocks: on every device, at the wall segment's end
+    wall_x = P.x[nf:config.n_particles - nb, 0]
     Ww = W + config.cutoff + 2.0 * config.skin
     windows = [np.nonzero(in_slab(wall_x, k, Ww))[0] for k in range(n_slabs)]
-    n_wall = max(len(w) for w in windows) if config.n_wall else 0
+    n_fixed = max(len(w) for w in windows) if len(wall_x) else 0
+    n_wall = n_fixed + nb
     n_local = C + 2 * H
     local = config.replace(n_fluid=n_local, n_wall=n_wall)
 
@@ -229,20 +232,22 @@ def decompose(scene, n_slabs: int, *, bounds: Optional[Sequence[float]] = None, 
         mine = fluid_idx[in_slab(xf, k)]
         rows = np.concatenate([mine, np.full(n_local - len(mine), fluid_idx[0])])
         wrows = nf + windows[k]
-        wrows = np.concatenate([wrows, np.full(n_wall - len(wrows), wrows[0] if len(wrows) else nf)]).astype(int)
-        take = np.concatenate([rows, wrows]).astype(int)
+        wrows = np.concatenate([wrows, np.full(n_fixed - len(wrows), wrows[0] if len(wrows) else nf)]).astype(int)
+        take = np.concatenate([rows, wrows, np.arange(config.n_particles - nb, config.n_particles)]).astype(int)
         Pk = jax.tree_util.tree_map(lambda a: np.asarray(a)[take], P)
         kind = Pk.kind.copy()
         kind[len(mine):n_local] = Kind.PAD
-        kind[n_local + len(windows[k]):] = Kind.PAD
+        kind[n_local + len(windows[k]):n_local + n_fixed] = Kind.PAD
         pid = Pk.pid.copy()
         pid[kind == Kind.PAD] = -1
-        Pk = Pk.replace(kind=kind, pid=pid)
-        Pk = jax.tree_util.tree_map(jnp.asarray, Pk)
         owned = np.zeros(n_local, bool)
         owned[:len(mine)] = True
+        Pk = Pk.replace(kind=kind, pid=pid)
+        if config.has_blocks:  # the rows whose reactions on the blocks this device counts
+            Pk = Pk.replace(owned=np.concatenate([owned, np.zeros(n_wall, bool)]))
+        Pk = jax.tree_util.tree_map(jnp.asarray, Pk)
         st = State(step=jnp.asarray(state.step), particles=Pk, nbrs=empty_neighbours(local, Pk.x),
-                   status=jnp.zeros((), jnp.int32))
+                   status=jnp.zeros((), jnp.int32), blocks=state.blocks, coupling=state.coupling)
         i32 = lambda v: jnp.asarray(v, jnp.int32)
         none = jnp.full((H,), n_local, jnp.int32)
         sl = Slab(owned=jnp.asarray(owned), send_l=jnp.zeros((H,), jnp.int32), send_r=jnp.zeros((H,), jnp.int32),
@@ -334,7 +339,10 @@ def _rebuild(st: State, sl: Slab, dec: Decomposition):
                     status=sl.status | jnp.where(over, Status.SLAB_OVERFLOW, 0).astype(jnp.int32),
                     migrated=sl.migrated + jnp.minimum(nl, M) + jnp.minimum(nr, M),
                     halo_sent=jnp.minimum(nsr, H) + jnp.minimum(nsl, H), owned_count=n_own)
-    st = refresh(st.replace(particles=_concat(L, walls)), cfg)  # the fluid segment is sorted: its order stays
+    P = _concat(L, walls)
+    if cfg.has_blocks:  # the rows whose reactions on the blocks this device counts
+        P = P.replace(owned=jnp.concatenate([owned, jnp.zeros((cfg.n_wall,), bool)]))
+    st = refresh(st.replace(particles=P), cfg)  # the fluid segment is sorted: its order stays
     return st, sl
 
 
@@ -346,14 +354,24 @@ def _exchange(st: State, sl: Slab, dec: Decomposition) -> State:
     hr = _shift(_rows(F, sl.send_l), n, to_right=False)
     F = jax.tree_util.tree_map(lambda a, b, c: a.at[sl.recv_l].set(b, mode="drop").at[sl.recv_r].set(c, mode="drop"),
                                F, hl, hr)
+    if F.owned is not None:  # copies stay copies here
+        F = F.replace(owned=sl.owned)
     return st.replace(particles=_concat(F, walls))
+
+
+def _total_loads(st: State) -> State:
+    """The fluid loads on the blocks summed over the devices (each counted its owned rows)."""
+    if st.coupling is None:
+        return st
+    c = st.coupling
+    return st.replace(coupling=c.replace(force=jax.lax.psum(c.force, AXIS), torque=jax.lax.psum(c.torque, AXIS)))
 
 
 def _local_prime(st: State, sl: Slab, params: Params, dec: Decomposition):
     st, sl = _rebuild(st, sl, dec)
     st = _exchange(st, sl, dec)
     cfg = dec.local
-    return cfg.coupling_method.prime(st, params, cfg), sl
+    return _total_loads(cfg.coupling_method.prime(st, params, cfg)), sl
 
 
 def _on_mesh(fn, dec: Decomposition, mesh: Optional[Mesh], out_specs):
@@ -402,7 +420,7 @@ def make_sharded_rollout(dec: Decomposition, n_steps: int, *, mesh: Optional[Mes
             go = jax.lax.pmax(needs_rebuild(st, cfg).astype(jnp.int32), AXIS) > 0
             st, sl = jax.lax.cond(go, lambda a: _rebuild(*a, dec), lambda a: a, (st, sl))
         st = _exchange(st, sl, dec)
-        return advance(st, params, cfg), sl
+        return _total_loads(advance(st, params, cfg)), sl
 
     if checkpoint:
         one_step = jax.checkpoint(one_step, prevent_cse=False)
@@ -472,7 +490,8 @@ def gather_state(dec: Decomposition, ss: ShardedState, scene) -> State:
     if len(np.unique(pid)) != len(pid) or len(pid) != dec.n_water:
         raise ValueError(f"gather_state: {len(pid)} owned rows for {dec.n_water} water particles")
     order = np.argsort(pid, kind="stable")
-    G = scene.state.particles
+    G = scene.state.particles.replace(owned=None)
+    P = P.replace(owned=None)
 
     def merge(a, g):
         water = np.asarray(a)[:, :nf][owned][order]
@@ -487,7 +506,9 @@ def gather_state(dec: Decomposition, ss: ShardedState, scene) -> State:
     wpid = np.asarray(P.pid)[:, nf:][mine]
     Q = jax.tree_util.tree_map(lambda q, a: q.at[wpid].set(jnp.asarray(np.asarray(a)[:, nf:][mine], q.dtype)), Q, P)
     step = jnp.asarray(np.asarray(ss.state.step)[0], jnp.int32)
-    return State(step=step, particles=Q, nbrs=empty_neighbours(cfg, Q.x), status=jnp.zeros((), jnp.int32))
+    first = lambda tree: None if tree is None else jax.tree_util.tree_map(lambda a: jnp.asarray(a[0]), tree)
+    return State(step=step, particles=Q, nbrs=empty_neighbours(cfg, Q.x), status=jnp.zeros((), jnp.int32),
+                 blocks=first(ss.state.blocks), coupling=first(ss.state.coupling))
 
 
 def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int] = None, capacity_factor: float = 1.5,

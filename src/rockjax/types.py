@@ -531,6 +531,9 @@ class Particles:
     solver: [N, 6] the implicit scheme's per-particle solve record (``sph.dfsph.SOLVER_COLUMNS``:
         the pressures that warm-start the next step, the last errors, the sweep counts); None for
         the explicit schemes (``dfsph.prime`` fills it).
+    owned: [N] bool, the rows whose forces on the blocks count in this state's loads; None (the
+        default): all. A decomposed scene (``rockjax.decomposition``) holds halo copies of other
+        devices' water, whose reactions on the blocks their owners count.
     """
 
     x: jax.Array
@@ -546,6 +549,7 @@ class Particles:
     x_body: Optional[jax.Array] = None
     grad_rho: Optional[jax.Array] = None
     solver: Optional[jax.Array] = None
+    owned: Optional[jax.Array] = None
 
 
 @_pytree_dataclass

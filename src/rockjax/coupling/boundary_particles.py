@@ -141,6 +141,8 @@ def from_accelerations(P: Particles, acc_bodies, bodies: tuple[int, ...], blocks
     nf = config.n_fluid
     m = params.fluid.rho0 * P.vol[:nf]
     fluid = P.kind[:nf] == Kind.FLUID
+    if P.owned is not None:  # a decomposed scene: halo copies' reactions are counted by their owners
+        fluid = fluid & P.owned[:nf]
     n_blocks = blocks.x.shape[0]
     force = jnp.zeros((n_blocks, 3), P.x.dtype)
     torque = jnp.zeros((n_blocks, 3), P.x.dtype)
@@ -162,6 +164,8 @@ def from_pair_forces(P: Particles, pair_forces, bodies: tuple[int, ...], blocks)
     row, col, f = pair_forces[:3]
     x_rows = pair_forces[3] if len(pair_forces) > 3 else P.x  # where the forces acted, if not P.x
     body = take(P.body, col)
+    if P.owned is not None:  # a decomposed scene: halo copies' reactions are counted by their owners
+        body = jnp.where(take(P.owned, row), body, -1)
     x = [take(x_rows[:, a], row) for a in range(3)]
     n_blocks = blocks.x.shape[0]
     force = jnp.zeros((n_blocks, 3), P.x.dtype)

@@ -246,6 +246,8 @@ def _reaction(P: Particles, acc, r, idx, params: Params, config: Config, n_block
     (reduced as [n_fluid] component arrays: a reduction over the long axis of an [n_fluid, Bc, 3]
     array was ~10x slower on CPU)."""
     m = params.fluid.rho0 * P.vol[: config.n_fluid]
+    if P.owned is not None:  # a decomposed scene: halo copies' reactions are counted by their owners
+        m = jnp.where(P.owned[: config.n_fluid], m, 0.0)
     force, torque = [], []
     for k in range(len(idx)):
         f = [m * acc[:, k, j] for j in range(3)]  # force on the fluid [N]
