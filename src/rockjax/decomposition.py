@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Callable, Optional, Sequence
+from typing import Callable, NamedTuple, Optional, Sequence
 
 import jax
 import jax.numpy as jnp
@@ -61,7 +61,7 @@ from .step import advance, refresh
 from .types import Config, Kind, Params, State, Status, _pytree_dataclass
 
 __all__ = ["AXIS", "Decomposition", "Slab", "ShardedState", "decompose", "make_mesh", "make_sharded_rollout",
-           "sharded_prime", "gather_fluid", "gather_state", "run_sharded", "slab_status"]
+           "sharded_prime", "gather_fluid", "gather_state", "run_sharded", "ShardedRun", "slab_status"]
 
 AXIS = "slabs"  #: name of the device mesh axis the slabs are laid along
 
@@ -511,18 +511,33 @@ def gather_state(dec: Decomposition, ss: ShardedState, scene) -> State:
                  blocks=first(ss.state.blocks), coupling=first(ss.state.coupling))
 
 
-def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int] = None, capacity_factor: float = 1.5,
-                max_regrows: int = 6, mesh: Optional[Mesh] = None, **decompose_kw):
-    """Host driver: decompose ``scene`` over ``n_slabs`` devices and run ``n_steps`` steps in chunks
-    of ``chunk_steps`` (multiples of ``Config.rebuild_every``; default one chunk). After each
-    chunk the status bits are read: a buffer overflow (``SLAB_OVERFLOW``, or a neighbour-list
-    bit the one-device driver grows) re-decomposes the chunk's start state with larger buffers
-    (``capacity_factor`` x 1.5, the bounds from the particles' counts then; the list capacities as
-    ``driver`` grows them) and reruns the chunk, from the same particle records (so the run stays
-    the one-device trajectory to rounding);
-    any other bit raises ``driver.SimulationError`` naming the step and the cause.
+class ShardedRun(NamedTuple):
+    """What ``run_sharded`` returns: the last ``Decomposition`` and ``ShardedState``, and how many
+    times it re-decomposed the run to grow a buffer (``regrows``) or to even out the slabs'
+    counts (``rebalances``)."""
 
-    Returns ``(Decomposition, ShardedState, regrows)``.
+    dec: Decomposition
+    state: ShardedState
+    regrows: int
+    rebalances: int
+
+
+def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int] = None, capacity_factor: float = 1.5,
+                rebalance_above: Optional[float] = 1.25, max_regrows: int = 6, mesh: Optional[Mesh] = None,
+                **decompose_kw) -> ShardedRun:
+    """Host driver: decompose ``scene`` over ``n_slabs`` devices and run ``n_steps`` steps in chunks
+    of ``chunk_steps`` (multiples of ``Config.rebuild_every``; default one chunk).
+
+    After each chunk the status bits are read: a buffer overflow (``SLAB_OVERFLOW``, or a
+    neighbour-list bit the one-device driver grows) re-decomposes the chunk's start state with
+    larger buffers (``capacity_factor`` x 1.5; the list capacities as ``driver`` grows them) and
+    reruns the chunk; any other bit raises ``driver.SimulationError`` naming the steps and the
+    cause. Load balance: when the largest slab owns more than ``rebalance_above`` times the mean
+    (None: never), the state after the chunk is re-decomposed with bounds at the water's x
+    quantiles (equal counts). A re-decomposition starts from the same particle records (each wall's
+    from the device whose slab holds it) and is not primed again, so the run stays one device's
+    trajectory to rounding; its bounds are the quantiles, whatever ``bounds`` the first had.
+    ``decompose_kw``: ``decompose``'s other keywords (``bounds``, ``halo_layers``).
     """
     from .driver import SimulationError, _grow
 
@@ -532,27 +547,30 @@ def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int]
     chunk = n_steps if chunk_steps is None else int(chunk_steps)
     if chunk < 1 or chunk % k:
         raise ValueError(f"run_sharded: chunk_steps must be a positive multiple of Config.rebuild_every ({k}); got {chunk_steps}")
+    if rebalance_above is not None and not rebalance_above > 1.0:
+        raise ValueError(f"run_sharded: rebalance_above must be > 1 or None (got {rebalance_above})")
     growable = int(Status.growable()) | int(Status.SLAB_OVERFLOW)
     dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **decompose_kw)
     ss = sharded_prime(dec, ss, scene.params, mesh=mesh)
+    later_kw = {key: v for key, v in decompose_kw.items() if key != "bounds"}
     runs = {}
-    done = regrows = 0
+    done = regrows = rebalances = 0
     while done < n_steps:
         n = min(chunk, n_steps - done)
-        key = (dec, n)
+        key = (dataclasses.replace(dec, bounds=()), n)  # the bounds are data (Slab.lo / hi): no recompile
         if key not in runs:
             runs[key] = jax.jit(make_sharded_rollout(dec, n, mesh=mesh, checkpoint=False))
         out = runs[key](ss, scene.params)
         bits = slab_status(out)
+        step = int(np.asarray(ss.state.step)[0])
         if bits & ~growable:
-            step = int(np.asarray(ss.state.step)[0])
             raise SimulationError(f"decomposed run stopped in steps {step}-{step + n}: {Status.describe(bits & ~growable)}",
                                   step=step, status=bits)
         if bits:
             regrows += 1
             if regrows > max_regrows:
                 raise SimulationError(f"run_sharded: gave up after {max_regrows} regrowths ({Status.describe(bits)})",
-                                      step=int(np.asarray(ss.state.step)[0]), status=bits)
+                                      step=step, status=bits)
             start = gather_state(dec, ss, scene)
             nb = out.state.nbrs
             probe = start.replace(nbrs=start.nbrs.replace(
@@ -562,7 +580,12 @@ def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int]
             if bits & Status.SLAB_OVERFLOW:
                 capacity_factor *= 1.5
             scene = scene.replace(config=config, state=start)
-            dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **decompose_kw)
+            dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **later_kw)
             continue  # not primed again: the records carry their accelerations; the chunk's first rebuild lists them
         ss, done = out, done + n
-    return dec, ss, regrows
+        counts = np.asarray(ss.slab.owned_count)
+        if done < n_steps and rebalance_above is not None and counts.max() > rebalance_above * counts.mean():
+            rebalances += 1
+            scene = scene.replace(state=gather_state(dec, ss, scene))
+            dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **later_kw)
+    return ShardedRun(dec=dec, state=ss, regrows=regrows, rebalances=rebalances)

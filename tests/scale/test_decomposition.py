@@ -12,7 +12,8 @@ dx 0.02 m, 3840 water particles) cut into four slabs of equal counts along x:
   slabs; no status bit;
 * the host driver ``run_sharded`` with buffers sized to the initial counts (``capacity_factor=1``)
   in chunks of 40 steps: it regrows at least once and still equals one device's run to the same
-  bounds;
+  bounds; and from unequal slabs (480 / 960 / 960 / 1440 particles) it rebalances to equal counts,
+  again on one device's trajectory;
 * ``jax.grad`` of a position functional after 40 steps w.r.t. every ``Params`` leaf, sharded vs
   one device: equal to 1e-9 relative; and central finite differences of the sharded forward in
   the artificial viscosity alpha at two relative steps (1e-2, 1e-3) agree with each other and
@@ -81,10 +82,16 @@ out.update(dx=float(np.abs(g["x"] - x1).max()), dv=float(np.abs(g["v"] - v1).max
            migrated=np.asarray(sh.slab.migrated).tolist(), status=D.slab_status(sh) | int(ref.status))
 
 # the host driver: capacity_factor 1.0 leaves no room for the particles that flow into a slab
-dec2, sh2, regrows = D.run_sharded(sc, 4, 200, chunk_steps=40, capacity_factor=1.0)
-g2 = D.gather_fluid(dec2, sh2)
-out.update(regrows=regrows, dx_regrow=float(np.abs(g2["x"] - x1).max()), dv_regrow=float(np.abs(g2["v"] - v1).max()),
-           step_regrow=int(np.asarray(sh2.state.step)[0]), status_regrow=D.slab_status(sh2))
+r2 = D.run_sharded(sc, 4, 200, chunk_steps=40, capacity_factor=1.0, rebalance_above=None)
+g2 = D.gather_fluid(r2.dec, r2.state)
+out.update(regrows=r2.regrows, dx_regrow=float(np.abs(g2["x"] - x1).max()), dv_regrow=float(np.abs(g2["v"] - v1).max()),
+           step_regrow=int(np.asarray(r2.state.state.step)[0]), status_regrow=D.slab_status(r2.state))
+# load balance: slabs cut at 0.1 / 0.3 / 0.5 m own 480 / 960 / 960 / 1440 particles
+r3 = D.run_sharded(sc, 4, 200, chunk_steps=40, bounds=[0.1, 0.3, 0.5])
+g3 = D.gather_fluid(r3.dec, r3.state)
+out.update(rebalances=r3.rebalances, counts_balanced=np.asarray(r3.state.slab.owned_count).tolist(),
+           dx_balance=float(np.abs(g3["x"] - x1).max()), dv_balance=float(np.abs(g3["v"] - v1).max()),
+           status_balance=D.slab_status(r3.state))
 
 # gradients
 n = 40
@@ -222,6 +229,17 @@ def test_run_sharded_regrows_and_keeps_the_trajectory(sharded):
     assert r["dx_regrow"] < 1e-12 and r["dv_regrow"] < 1e-10, r
 
 
+def test_run_sharded_rebalances_the_slabs(sharded):
+    """Slabs cut at x = 0.1 / 0.3 / 0.5 m own 480 / 960 / 960 / 1440 of the 3840 particles (the
+    largest 1.5x the mean): after the first chunk ``run_sharded`` re-decomposes at equal counts,
+    and the run still equals one device's to rounding."""
+    r = sharded
+    assert r["rebalances"] >= 1 and r["status_balance"] == 0, r
+    counts = r["counts_balanced"]
+    assert max(counts) <= 1.25 * sum(counts) / len(counts), r
+    assert r["dx_balance"] < 1e-12 and r["dv_balance"] < 1e-10, r
+
+
 def test_sharded_gradient_equals_one_device(sharded):
     r = sharded
     assert r["n_leaves"] >= 6, r
@@ -249,6 +267,8 @@ def test_decompose_refuses_bad_input(small):
         D.decompose(small, 1, halo_layers=0)
     with pytest.raises(ValueError, match="chunk_steps"):
         D.run_sharded(small, 1, 16, chunk_steps=5)
+    with pytest.raises(ValueError, match="rebalance_above"):
+        D.run_sharded(small, 1, 16, rebalance_above=0.9)
     dfsph = dam_break(dx=0.05, column_length=0.8, column_height=0.3, column_width=0.3, tank_length=1.2,
                       tank_width=0.4, scheme=DFSPH())
     with pytest.raises(ValueError, match="DFSPH"):
