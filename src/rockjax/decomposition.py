@@ -42,6 +42,25 @@ only (``Particles.owned``, read by the couplings' reductions) and are summed ove
 
 Scope: an explicit scheme (``WCSPH``, ``SeedScheme``); DFSPH's pressure sweeps would need an
 exchange per sweep: ``decompose`` refuses it with a ValueError.
+
+Many hosts (one process per GPU; written for JAX's multi-process runtime, tested here only with
+one process and forced CPU devices)::
+
+    # launched once per GPU, e.g. srun -n 16 python run.py, or by hand with
+    # JAX_COORDINATOR=host0:1234 and each process's id
+    import jax
+    jax.distributed.initialize()          # reads the cluster (SLURM, ...) or pass coordinator_address,
+                                          # num_processes, process_id
+    from rockjax import decomposition as D, scenes
+    scene = scenes.dam_break(dx=...)      # every process builds the same scene (deterministic)
+    mesh = D.make_mesh(jax.device_count())             # all processes' devices, in process order
+    dec, ss = D.decompose(scene, jax.device_count())
+    ss = D.place(ss, mesh)                 # each process puts only its own devices' slabs
+    ss = D.sharded_prime(dec, ss, scene.params, mesh=mesh)
+    ss = jax.jit(D.make_sharded_rollout(dec, 800, mesh=mesh, checkpoint=False))(ss, scene.params)
+    out = D.gather_fluid(dec, ss)          # on every process (process_allgather)
+    if jax.process_index() == 0:
+        ...                                # write one HDF5 file from process 0
 """
 
 from __future__ import annotations
@@ -61,7 +80,7 @@ from .step import advance, refresh
 from .types import Config, Kind, Params, State, Status, _pytree_dataclass
 
 __all__ = ["AXIS", "Decomposition", "Slab", "ShardedState", "decompose", "make_mesh", "make_sharded_rollout",
-           "sharded_prime", "gather_fluid", "gather_state", "run_sharded", "ShardedRun", "slab_status"]
+           "sharded_prime", "place", "gather_fluid", "gather_state", "run_sharded", "ShardedRun", "slab_status"]
 
 AXIS = "slabs"  #: name of the device mesh axis the slabs are laid along
 
@@ -449,9 +468,32 @@ def make_sharded_rollout(dec: Decomposition, n_steps: int, *, mesh: Optional[Mes
     return run
 
 
+def place(ss: ShardedState, mesh: Mesh) -> ShardedState:
+    """Put the stacked state on ``mesh`` (one slab per device, ``NamedSharding`` along ``AXIS``).
+    Each process reads only the slabs of its own devices from ``ss`` (``jax.make_array_from_callback``),
+    so with several processes every process passes the same host ``ss`` (``decompose`` is
+    deterministic); with one process it is a plain ``device_put``."""
+    sharding = jax.sharding.NamedSharding(mesh, PSpec(AXIS))
+
+    def put(a):
+        host = np.asarray(a)
+        return jax.make_array_from_callback(host.shape, sharding, lambda index: host[index])
+
+    return jax.tree_util.tree_map(put, ss)
+
+
+def _host(a) -> np.ndarray:
+    """``a`` as a host array; with several processes, gathered from all of them first."""
+    if jax.process_count() > 1 and isinstance(a, jax.Array) and not a.is_fully_addressable:
+        from jax.experimental import multihost_utils
+
+        return np.asarray(multihost_utils.process_allgather(a, tiled=True))
+    return np.asarray(a)
+
+
 def slab_status(ss: ShardedState) -> int:
     """The OR of every device's ``State.status`` and ``Slab.status`` bits (host int)."""
-    bits = np.bitwise_or.reduce(np.asarray(ss.state.status)) | np.bitwise_or.reduce(np.asarray(ss.slab.status))
+    bits = np.bitwise_or.reduce(_host(ss.state.status)) | np.bitwise_or.reduce(_host(ss.slab.status))
     return int(bits)
 
 
@@ -461,12 +503,12 @@ def gather_fluid(dec: Decomposition, ss: ShardedState) -> dict:
     a particle is missing or owned twice (the decomposition lost track of it)."""
     P = ss.state.particles
     nf = dec.n_local
-    owned = np.asarray(ss.slab.owned)
-    pid = np.asarray(P.pid)[:, :nf][owned]
+    owned = _host(ss.slab.owned)
+    pid = _host(P.pid)[:, :nf][owned]
     order = np.argsort(pid, kind="stable")
     out = {"pid": pid[order]}
     for name in ("x", "v", "rho", "p"):
-        out[name] = np.asarray(getattr(P, name))[:, :nf][owned][order]
+        out[name] = _host(getattr(P, name))[:, :nf][owned][order]
     if len(np.unique(pid)) != len(pid) or len(pid) != dec.n_water:
         raise ValueError(f"gather_fluid: {len(pid)} owned rows ({len(np.unique(pid))} distinct) for "
                          f"{dec.n_water} water particles: the decomposition lost track of some")
@@ -485,8 +527,8 @@ def gather_state(dec: Decomposition, ss: ShardedState, scene) -> State:
         raise ValueError("gather_state: the scene's fluid segment holds padding; gather_fluid returns its water")
     P = ss.state.particles
     nf = dec.n_local
-    owned = np.asarray(ss.slab.owned)
-    pid = np.asarray(P.pid)[:, :nf][owned]
+    owned = _host(ss.slab.owned)
+    pid = _host(P.pid)[:, :nf][owned]
     if len(np.unique(pid)) != len(pid) or len(pid) != dec.n_water:
         raise ValueError(f"gather_state: {len(pid)} owned rows for {dec.n_water} water particles")
     order = np.argsort(pid, kind="stable")
@@ -494,19 +536,19 @@ def gather_state(dec: Decomposition, ss: ShardedState, scene) -> State:
     P = P.replace(owned=None)
 
     def merge(a, g):
-        water = np.asarray(a)[:, :nf][owned][order]
+        water = _host(a)[:, :nf][owned][order]
         return jnp.concatenate([jnp.asarray(water, g.dtype), g[cfg.n_fluid:]])
 
     Q = jax.tree_util.tree_map(merge, P, G)
     # the walls' state (the Adami density and pressure that the next step's sums read) from the device
     # whose slab holds each wall, whose fluid around it is complete
-    kind, x = np.asarray(P.kind)[:, nf:], np.asarray(P.x)[:, nf:, 0]
-    lo, hi = np.asarray(ss.slab.lo)[:, None], np.asarray(ss.slab.hi)[:, None]
+    kind, x = _host(P.kind)[:, nf:], _host(P.x)[:, nf:, 0]
+    lo, hi = _host(ss.slab.lo)[:, None], _host(ss.slab.hi)[:, None]
     mine = (kind == Kind.WALL) & (x >= lo) & (x < hi)
-    wpid = np.asarray(P.pid)[:, nf:][mine]
-    Q = jax.tree_util.tree_map(lambda q, a: q.at[wpid].set(jnp.asarray(np.asarray(a)[:, nf:][mine], q.dtype)), Q, P)
-    step = jnp.asarray(np.asarray(ss.state.step)[0], jnp.int32)
-    first = lambda tree: None if tree is None else jax.tree_util.tree_map(lambda a: jnp.asarray(a[0]), tree)
+    wpid = _host(P.pid)[:, nf:][mine]
+    Q = jax.tree_util.tree_map(lambda q, a: q.at[wpid].set(jnp.asarray(_host(a)[:, nf:][mine], q.dtype)), Q, P)
+    step = jnp.asarray(_host(ss.state.step)[0], jnp.int32)
+    first = lambda tree: None if tree is None else jax.tree_util.tree_map(lambda a: jnp.asarray(_host(a)[0]), tree)
     return State(step=step, particles=Q, nbrs=empty_neighbours(cfg, Q.x), status=jnp.zeros((), jnp.int32),
                  blocks=first(ss.state.blocks), coupling=first(ss.state.coupling))
 
@@ -562,7 +604,7 @@ def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int]
             runs[key] = jax.jit(make_sharded_rollout(dec, n, mesh=mesh, checkpoint=False))
         out = runs[key](ss, scene.params)
         bits = slab_status(out)
-        step = int(np.asarray(ss.state.step)[0])
+        step = int(_host(ss.state.step)[0])
         if bits & ~growable:
             raise SimulationError(f"decomposed run stopped in steps {step}-{step + n}: {Status.describe(bits & ~growable)}",
                                   step=step, status=bits)
@@ -583,7 +625,7 @@ def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int]
             dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **later_kw)
             continue  # not primed again: the records carry their accelerations; the chunk's first rebuild lists them
         ss, done = out, done + n
-        counts = np.asarray(ss.slab.owned_count)
+        counts = _host(ss.slab.owned_count)
         if done < n_steps and rebalance_above is not None and counts.max() > rebalance_above * counts.mean():
             rebalances += 1
             scene = scene.replace(state=gather_state(dec, ss, scene))

@@ -69,7 +69,9 @@ out = dict(devices=jax.device_count(), bounds=list(dec.bounds), n_water=dec.n_wa
 
 # trajectories
 n = 200
-sh = jax.jit(D.make_sharded_rollout(dec, n, checkpoint=False))(D.sharded_prime(dec, ss, sc.params), sc.params)
+placed = D.place(ss, D.make_mesh(4))  # one slab per device, as each process of a multi-host run puts its own
+out["placed_devices"] = len(placed.state.particles.x.sharding.device_set)
+sh = jax.jit(D.make_sharded_rollout(dec, n, checkpoint=False))(D.sharded_prime(dec, placed, sc.params), sc.params)
 g = D.gather_fluid(dec, sh)
 ref, _ = jax.jit(make_rollout(cfg, n // k, checkpoint=False))(prime(sc.state, sc.params, cfg), sc.params)
 P = ref.particles
@@ -210,7 +212,7 @@ def test_sharded_coupled_wedge_gradient_equals_one_device():
 
 def test_sharded_trajectory_equals_one_device(sharded):
     r = sharded
-    assert r["devices"] == 4 and len(r["bounds"]) == 3
+    assert r["devices"] == 4 and len(r["bounds"]) == 3 and r["placed_devices"] == 4
     assert r["status"] == 0, r
     assert r["moved"] > 0.02 and r["vmax"] > 0.2, r  # the column really collapses
     assert sum(r["migrated"]) > 0, r  # particles crossed slab bounds
