@@ -1,10 +1,12 @@
 """Command line: ``rockjax list``, ``rockjax plot RUN.h5 [--out-dir D]`` and ``rockjax run NAME_OR_FILE [--t-end T] [--dx DX] [--scheme S]
-[--coupling C] [--out run.h5] [--frame-dt DT] [--checkpoint-every N] [--resume run.h5] [--dry-run] [--quiet]``.
+[--coupling C] [--out run.h5] [--frame-dt DT] [--checkpoint-every N] [--resume run.h5] [--dry-run] [--devices N]
+[--quiet]``.
 
 ``run`` takes a built-in scene name (``rockjax list``) or a TOML scene file (a path ending in
 ``.toml`` or any existing file; see ``rockjax.scenes.scenefile``). Flags given on the command line
 override the file's values. ``--dry-run`` prints one JSON line (counts, dt, steps, stages, memory
-estimate) without running. ``--resume run.h5`` continues an interrupted run (same scene and
+estimate) without running; for a field-scale built-in scene (``fjord``) it prints an estimate without
+building it: counts, memory per device over ``--devices N`` slabs and hours at measured throughputs. ``--resume run.h5`` continues an interrupted run (same scene and
 flags) from the file's newest checkpoint, appending frames to it. Exit status: 0 done, 1 the run
 failed (or writing its file failed), 2 bad input (refused before anything is compiled, also with
 ``--dry-run``: one line on stderr naming the field or flag), 130 / 143 interrupted (Ctrl-C /
@@ -29,6 +31,7 @@ _EPILOG = """examples:
   rockjax list                                   the built-in scenes
   rockjax run dam_break --dx 0.05 --t-end 0.5    a built-in scene at a coarse resolution
   rockjax run examples/box_off_ramp.toml --dry-run
+  rockjax run fjord --dry-run --devices 16 --t-end 60   field scale: counts, memory / device, hours
   rockjax run examples/box_off_ramp.toml --out run.h5
   rockjax run examples/box_off_ramp.toml --resume run.h5   continue it after Ctrl-C or a kill
   rockjax plot run.h5                            PNGs: gauges, run-up, block paths, energy
@@ -79,6 +82,8 @@ def _check_flags(args) -> None:
     """Refuse flags no run can use (ValueError naming the flag), before a scene is built."""
     if args.rebuild_period is not None and args.rebuild_period < 1:
         raise ValueError(f"--rebuild-period must be a positive number of steps (got {args.rebuild_period})")
+    if args.devices < 1:
+        raise ValueError(f"--devices must be a positive number of devices (got {args.devices})")
     if args.checkpoint_every is not None and args.checkpoint_every < 1:
         raise ValueError(f"--checkpoint-every must be a positive number of frames (got {args.checkpoint_every})")
     if args.resume is not None and args.settle:
@@ -90,12 +95,32 @@ def _check_flags(args) -> None:
             raise ValueError(f"{flag} must be a positive finite number in SI units (got {value})")
 
 
+def _estimate(args) -> dict | None:
+    """A field-scale built-in scene's cost without building it (``scenes.ESTIMATES``), for
+    ``--dry-run``; None for the others (they are built and described)."""
+    from .scenes import ESTIMATES
+
+    if not args.dry_run or is_scene_file(args.scene) or args.scene not in ESTIMATES:
+        return None
+    options = {k: v for k, v in (("dx", args.dx), ("scheme", args.scheme)) if v is not None}
+    t_end = args.t_end if args.t_end is not None else 1.0
+    return ESTIMATES[args.scene](n_devices=args.devices, t_end=t_end, **options)
+
+
 def _cmd_run(args) -> int:
     from .driver import Interrupted, SimulationError, check_out, check_resume, check_times, simulate
     from .observables import scene_observer
 
     try:
         _check_flags(args)
+        estimate = _estimate(args)
+        if estimate is not None:
+            print(json.dumps(estimate))
+            return 0
+        if args.devices != 1 and not args.dry_run:
+            raise ValueError(f"--devices {args.devices}: the command line runs on one device; run a scene over "
+                             "several with rockjax.decomposition.run_sharded (Python), or give --dry-run for "
+                             "the estimate")
         scene, t_end, frame_dt, out = _load(args)
         if args.resume is not None:
             if out is not None and os.path.abspath(out) != os.path.abspath(args.resume):
@@ -199,6 +224,9 @@ def _add_run(sub) -> None:
     p.add_argument("--dry-run", action="store_true",
                    help="print counts, dt, steps, stages and a memory estimate (JSON) without running")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--devices", type=int, default=1, metavar="N",
+                   help="with --dry-run on a field-scale scene (fjord): its cost over N devices (slabs along x), "
+                        "estimated without building it")
     p.add_argument("--rebuild-period", type=int, default=None,
                    help="rebuild the neighbour list at least every this many steps (default 32; it is also "
                         "rebuilt whenever a particle would move more than half the skin)")
