@@ -32,12 +32,12 @@ import argparse
 import datetime
 import json
 import os
-import subprocess
 import sys
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+from forced_devices import parse, run_child  # noqa: E402
 from jsonl_out import emit  # noqa: E402
 
 ROOT = os.path.dirname(HERE)
@@ -121,22 +121,17 @@ def main():
     ap.add_argument("--cross-section", type=float, default=200 * 50.0,
                     help="particles per x layer of the channel in the estimate (e.g. 200 m x 50 m at dx = 1 m)")
     ap.add_argument("--capacity-factor", type=float, default=1.5, help="decompose()'s buffer factor in the estimate")
-    ap.add_argument("--out")
-    ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
-    args = ap.parse_args()
-    if args.child:
-        return child(args)
+    args = parse(ap, child)
+    if args is None:
+        return
     date = datetime.date.today().isoformat()
     cases = []
     for n in args.devices:
-        env = dict(os.environ, XLA_FLAGS=f"--xla_force_host_platform_device_count={n}", JAX_PLATFORMS="cpu")
-        proc = subprocess.run([sys.executable, __file__, "--child", "--nx", str(args.nx), "--steps", str(args.steps)],
-                              capture_output=True, text=True, env=env, cwd=ROOT)
-        lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
-        if not lines:
-            emit(dict(kind="case", devices=n, date=date, error=proc.stderr[-800:]), args.out)
+        rec = run_child(__file__, ["--nx", str(args.nx), "--steps", str(args.steps)], n)
+        if "error" in rec:
+            emit(dict(rec, kind="case", date=date), args.out)
             continue
-        rec = dict(json.loads(lines[-1][len("RESULT "):]), date=date, cores=os.cpu_count())
+        rec = dict(rec, date=date, cores=os.cpu_count())
         cases.append(rec)
         emit(rec, args.out)
     if cases:

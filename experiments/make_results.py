@@ -1547,6 +1547,21 @@ def sec_slabs(doc: Doc):
                  x["ms_compute"], x["ms_exchange"], x["efficiency"]] for x in r.get("rows") or []]
         doc.p(table(["GPUs", "particles", "per GPU", "slab length / dx", "halo rows / GPU", "link", "ms compute",
                      "ms exchange", "weak-scaling efficiency vs 1 GPU"], rows))
+    recs = doc.records("fjord_sharded.jsonl", "python experiments/fjord_sharded.py --devices 4 --x64 --t-end 1.0 "
+                       "--out experiments/results/fjord_sharded.jsonl")
+    if recs is None:
+        return
+    doc.p("The field-scale scene `scenes.fjord` (a slab sliding from a 30 degree valley flank; 8.8 M water particles "
+          "at its default dx = 0.5 m) at dx = 4 m, run by `decomposition.run_sharded` over forced CPU devices (slabs "
+          "of equal counts along the valley, the slide and its boundary particles on every device) and by one device "
+          "in the same process: the largest difference of the water positions and of the slide's centroid. "
+          "`rockjax run fjord --dry-run --devices N` estimates the full-scale run.")
+    rows = [[r.get("date"), r.get("devices"), "f64" if r.get("x64") else "f32", r.get("steps"), r.get("water"),
+             ", ".join(str(v) for v in r.get("owned") or []), ", ".join(str(v) for v in r.get("halo_rows") or []),
+             r.get("slide_travel"), r.get("max_dx_vs_one_device"), r.get("slide_dx_vs_one_device"), r.get("status"),
+             r.get("wall_s_with_compile"), r.get("error")] for r in recs]
+    doc.p(table(["date", "devices", "float", "steps", "water", "owned per slab", "halo rows per slab", "slide travel m",
+                 "max water |dx| vs 1 device m", "slide |dx| m", "status", "wall s (with compile)", "error"], rows))
 
 
 SECTIONS = [sec_sph, sec_driver, sec_checkpoint, sec_skin, sec_time_vs_error, sec_peers, sec_dfsph, sec_wedge_dfsph, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,

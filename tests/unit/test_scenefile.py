@@ -25,7 +25,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
 # coarse spacings [m] that each example accepts (the builders' own limits: >= 4 layers of water, ...)
 COARSE_DX = dict(sliding_wedge=0.08, dam_break=0.1, hydrostatic_tank=0.05, piston_wavemaker=0.1, wave_flume=0.1, floating_box=0.05,
-                 block_drop=0.05, block_on_incline=None)
+                 block_drop=0.05, block_on_incline=None, fjord=6.0)
 
 
 def _line(text: str, pattern: str, nth: int = 0) -> int:
