@@ -566,7 +566,7 @@ class ShardedRun(NamedTuple):
 
 def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int] = None, capacity_factor: float = 1.5,
                 rebalance_above: Optional[float] = 1.25, max_regrows: int = 6, mesh: Optional[Mesh] = None,
-                **decompose_kw) -> ShardedRun:
+                out: Optional[str] = None, observe: Optional[Callable] = None, **decompose_kw) -> ShardedRun:
     """Host driver: decompose ``scene`` over ``n_slabs`` devices and run ``n_steps`` steps in chunks
     of ``chunk_steps`` (multiples of ``Config.rebuild_every``; default one chunk).
 
@@ -580,6 +580,12 @@ def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int]
     from the device whose slab holds it) and is not primed again, so the run stays one device's
     trajectory to rounding; its bounds are the quantiles, whatever ``bounds`` the first had.
     ``decompose_kw``: ``decompose``'s other keywords (``bounds``, ``halo_layers``).
+
+    ``out``: an HDF5 run file written as ``simulate`` writes it (``rockjax.io.read`` reads it back;
+    XDMF sidecars next to it), one frame at the start and after each chunk (so ``chunk_steps`` is
+    the frame interval), from the gathered state (``gather_state``), by process 0 only;
+    ``observe(state, params, config) -> dict`` (e.g. ``observables.scene_observer(scene.meta)``)
+    evaluated on it and stored under ``/observed``.
     """
     from .driver import SimulationError, _grow
 
@@ -595,39 +601,68 @@ def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int]
     dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **decompose_kw)
     ss = sharded_prime(dec, ss, scene.params, mesh=mesh)
     later_kw = {key: v for key, v in decompose_kw.items() if key != "bounds"}
-    runs = {}
-    done = regrows = rebalances = 0
-    while done < n_steps:
-        n = min(chunk, n_steps - done)
-        key = (dataclasses.replace(dec, bounds=()), n)  # the bounds are data (Slab.lo / hi): no recompile
-        if key not in runs:
-            runs[key] = jax.jit(make_sharded_rollout(dec, n, mesh=mesh, checkpoint=False))
-        out = runs[key](ss, scene.params)
-        bits = slab_status(out)
-        step = int(_host(ss.state.step)[0])
-        if bits & ~growable:
-            raise SimulationError(f"decomposed run stopped in steps {step}-{step + n}: {Status.describe(bits & ~growable)}",
-                                  step=step, status=bits)
-        if bits:
-            regrows += 1
-            if regrows > max_regrows:
-                raise SimulationError(f"run_sharded: gave up after {max_regrows} regrowths ({Status.describe(bits)})",
+    writer = None
+    if out is not None and jax.process_index() == 0:
+        from .driver import check_out
+        from .io.hdf5 import Writer
+
+        check_out(out)
+        writer = Writer(out, scene)
+    try:
+        _frame(writer, out, dec, ss, scene, observe)
+        runs = {}
+        done = regrows = rebalances = 0
+        while done < n_steps:
+            n = min(chunk, n_steps - done)
+            key = (dataclasses.replace(dec, bounds=()), n)  # the bounds are data (Slab.lo / hi): no recompile
+            if key not in runs:
+                runs[key] = jax.jit(make_sharded_rollout(dec, n, mesh=mesh, checkpoint=False))
+            res = runs[key](ss, scene.params)
+            bits = slab_status(res)
+            step = int(_host(ss.state.step)[0])
+            if bits & ~growable:
+                raise SimulationError(f"decomposed run stopped in steps {step}-{step + n}: {Status.describe(bits & ~growable)}",
                                       step=step, status=bits)
-            start = gather_state(dec, ss, scene)
-            nb = out.state.nbrs
-            probe = start.replace(nbrs=start.nbrs.replace(
-                max_count=jnp.max(nb.max_count), max_run=jnp.max(nb.max_run),
-                max_wall_count=jnp.max(nb.max_wall_count), max_body_count=jnp.max(nb.max_body_count)))
-            config, _ = _grow(config, k, probe, bits & int(Status.growable()) & ~int(Status.NEIGHBOUR_STALE))
-            if bits & Status.SLAB_OVERFLOW:
-                capacity_factor *= 1.5
-            scene = scene.replace(config=config, state=start)
-            dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **later_kw)
-            continue  # not primed again: the records carry their accelerations; the chunk's first rebuild lists them
-        ss, done = out, done + n
-        counts = _host(ss.slab.owned_count)
-        if done < n_steps and rebalance_above is not None and counts.max() > rebalance_above * counts.mean():
-            rebalances += 1
-            scene = scene.replace(state=gather_state(dec, ss, scene))
-            dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **later_kw)
-    return ShardedRun(dec=dec, state=ss, regrows=regrows, rebalances=rebalances)
+            if bits:
+                regrows += 1
+                if regrows > max_regrows:
+                    raise SimulationError(f"run_sharded: gave up after {max_regrows} regrowths ({Status.describe(bits)})",
+                                          step=step, status=bits)
+                start = gather_state(dec, ss, scene)
+                nb = res.state.nbrs
+                probe = start.replace(nbrs=start.nbrs.replace(
+                    max_count=jnp.max(nb.max_count), max_run=jnp.max(nb.max_run),
+                    max_wall_count=jnp.max(nb.max_wall_count), max_body_count=jnp.max(nb.max_body_count)))
+                config, _ = _grow(config, k, probe, bits & int(Status.growable()) & ~int(Status.NEIGHBOUR_STALE))
+                if bits & Status.SLAB_OVERFLOW:
+                    capacity_factor *= 1.5
+                scene = scene.replace(config=config, state=start)
+                dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **later_kw)
+                continue  # not primed again: the records carry their accelerations; the chunk's first rebuild lists them
+            ss, done = res, done + n
+            _frame(writer, out, dec, ss, scene, observe)
+            counts = _host(ss.slab.owned_count)
+            if done < n_steps and rebalance_above is not None and counts.max() > rebalance_above * counts.mean():
+                rebalances += 1
+                scene = scene.replace(state=gather_state(dec, ss, scene))
+                dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **later_kw)
+        return ShardedRun(dec=dec, state=ss, regrows=regrows, rebalances=rebalances)
+    finally:
+        if writer is not None:
+            writer.close()
+            from .io.xdmf import write_xdmf
+
+            write_xdmf(out)
+
+
+def _frame(writer, out, dec: Decomposition, ss: ShardedState, scene, observe) -> None:
+    """One frame of ``run_sharded``'s file from the gathered state (every process gathers: with
+    several processes the gather is collective; process 0 writes)."""
+    if out is None:
+        return
+    from .driver import host_frame
+
+    s = gather_state(dec, ss, scene)
+    if writer is not None:
+        obs = jax.device_get(observe(s, scene.params, scene.config)) if observe is not None else None
+        writer.append(float(s.step) * scene.config.dt, host_frame(s), slab_status(ss), observed=obs)

@@ -89,8 +89,16 @@ g2 = D.gather_fluid(r2.dec, r2.state)
 out.update(regrows=r2.regrows, dx_regrow=float(np.abs(g2["x"] - x1).max()), dv_regrow=float(np.abs(g2["v"] - v1).max()),
            step_regrow=int(np.asarray(r2.state.state.step)[0]), status_regrow=D.slab_status(r2.state))
 # load balance: slabs cut at 0.1 / 0.3 / 0.5 m own 480 / 960 / 960 / 1440 particles
-r3 = D.run_sharded(sc, 4, 200, chunk_steps=40, bounds=[0.1, 0.3, 0.5])
+import tempfile
+from rockjax import io, observables
+path = os.path.join(tempfile.mkdtemp(), "run.h5")
+r3 = D.run_sharded(sc, 4, 200, chunk_steps=40, bounds=[0.1, 0.3, 0.5], out=path,
+                   observe=observables.scene_observer(sc.meta))
 g3 = D.gather_fluid(r3.dec, r3.state)
+run = io.read(path)
+out.update(frames=len(run.time), t_last=float(run.time[-1]), t_expected=200 * cfg.dt,
+           file_dx=float(np.abs(np.asarray(run.x[-1])[:dec.n_water] - g3["x"]).max()),
+           observed=sorted(run.observed), xdmf=os.path.isfile(path[:-3] + ".xdmf"))
 out.update(rebalances=r3.rebalances, counts_balanced=np.asarray(r3.state.slab.owned_count).tolist(),
            dx_balance=float(np.abs(g3["x"] - x1).max()), dv_balance=float(np.abs(g3["v"] - v1).max()),
            status_balance=D.slab_status(r3.state))
@@ -240,6 +248,15 @@ def test_run_sharded_rebalances_the_slabs(sharded):
     counts = r["counts_balanced"]
     assert max(counts) <= 1.25 * sum(counts) / len(counts), r
     assert r["dx_balance"] < 1e-12 and r["dv_balance"] < 1e-10, r
+
+
+def test_run_sharded_writes_a_run_file(sharded):
+    """The same run with ``out=``: a frame at the start and after each of the 5 chunks, the last
+    one the gathered water (float32 in the file), the observer's energies, an XDMF sidecar."""
+    r = sharded
+    assert r["frames"] == 6 and abs(r["t_last"] - r["t_expected"]) < 1e-9, r
+    assert r["file_dx"] < 1e-6, r  # float32 storage of ~0.5 m coordinates
+    assert "fluid_kinetic" in r["observed"] and r["xdmf"], r
 
 
 def test_sharded_gradient_equals_one_device(sharded):
