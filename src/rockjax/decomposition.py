@@ -40,8 +40,10 @@ its wall segment) and advances them identically; each device's fluid loads count
 only (``Particles.owned``, read by the couplings' reductions) and are summed over the devices
 (``lax.psum``) after each fluid step, so every device applies the same loads.
 
-Scope: an explicit scheme (``WCSPH``, ``SeedScheme``); DFSPH's pressure sweeps would need an
-exchange per sweep: ``decompose`` refuses it with a ValueError.
+An implicit scheme (``DFSPH``) updates pressures and velocities in sweeps that the neighbours read:
+while a device's step is traced, its exchange is current (``sph.halo``), through which every
+sweep refreshes its halo rows and the solve's mean residual is summed over the devices (every
+device runs the same sweeps).
 
 Many hosts (one process per GPU; written for JAX's multi-process runtime, tested here only with
 one process and forced CPU devices)::
@@ -75,6 +77,7 @@ import numpy as np
 from jax.sharding import Mesh, PartitionSpec as PSpec
 
 from .rollout import n_blocks_for, needs_rebuild
+from .sph import halo
 from .sph.neighbours import cell_order
 from .step import advance, refresh
 from .types import Config, Kind, Params, State, Status, _pytree_dataclass
@@ -187,8 +190,6 @@ def decompose(scene, n_slabs: int, *, bounds: Optional[Sequence[float]] = None, 
         (unprimed; ``sharded_prime`` builds the lists and fills the accelerations).
     """
     from .scenes.base import empty_neighbours
-    from .sph.schemes import DFSPH
-
     config, state = scene.config, scene.state
     n_slabs = int(n_slabs)
     if n_slabs < 1:
@@ -197,13 +198,8 @@ def decompose(scene, n_slabs: int, *, bounds: Optional[Sequence[float]] = None, 
         raise ValueError(f"decompose: capacity_factor must be >= 1 (got {capacity_factor})")
     if config.n_fluid == 0:
         raise ValueError("decompose: the scene has no water to decompose")
-    if isinstance(config.scheme, DFSPH):
-        raise ValueError("decompose: Config.scheme DFSPH needs a halo exchange per pressure sweep; decompose "
-                         "scenes with an explicit scheme (WCSPH, SeedScheme)")
     if config.grid.periodic[0]:
         raise ValueError("decompose: the grid is periodic along x; slabs are cut along a non-periodic x")
-    if state.particles.solver is not None:
-        raise ValueError("decompose: the particles carry an implicit solver's record; decompose an explicit scheme's scene")
 
     P = jax.tree_util.tree_map(np.asarray, state.particles)
     nf = config.n_fluid
@@ -365,17 +361,49 @@ def _rebuild(st: State, sl: Slab, dec: Decomposition):
     return st, sl
 
 
+def _sync_rows(tree, sl: Slab, dec: Decomposition):
+    """``tree`` (leaves [n_local, ...], the fluid segment) with the halo rows replaced by their
+    owners' current rows (``lax.ppermute`` from both neighbours)."""
+    n = dec.n_slabs
+    hl = _shift(_rows(tree, sl.send_r), n, to_right=True)
+    hr = _shift(_rows(tree, sl.send_l), n, to_right=False)
+    return jax.tree_util.tree_map(lambda a, b, c: a.at[sl.recv_l].set(b, mode="drop").at[sl.recv_r].set(c, mode="drop"),
+                                  tree, hl, hr)
+
+
 def _exchange(st: State, sl: Slab, dec: Decomposition) -> State:
     """Copy the neighbours' current records of this device's halo rows (every step)."""
-    nf, n = dec.local.n_fluid, dec.n_slabs
-    F, walls = _split(st.particles, nf)
-    hl = _shift(_rows(F, sl.send_r), n, to_right=True)
-    hr = _shift(_rows(F, sl.send_l), n, to_right=False)
-    F = jax.tree_util.tree_map(lambda a, b, c: a.at[sl.recv_l].set(b, mode="drop").at[sl.recv_r].set(c, mode="drop"),
-                               F, hl, hr)
+    F, walls = _split(st.particles, dec.local.n_fluid)
+    F = _sync_rows(F, sl, dec)
     if F.owned is not None:  # copies stay copies here
         F = F.replace(owned=sl.owned)
     return st.replace(particles=_concat(F, walls))
+
+
+@dataclasses.dataclass(frozen=True)
+class _SlabExchange:
+    """``sph.halo.Exchange`` of one device while its step is traced: an implicit scheme's sweeps
+    refresh their halo rows and sum their residuals over the devices."""
+
+    slab: Slab
+    dec: Decomposition
+
+    def sync(self, values):
+        nf = self.dec.local.n_fluid
+        rows = _sync_rows(values[:nf], self.slab, self.dec)
+        return rows if values.shape[0] == nf else jnp.concatenate([rows, values[nf:]])
+
+    def total(self, value):
+        return jax.lax.psum(value, AXIS)
+
+    def owned(self, n: int):
+        return self.slab.owned[:n]
+
+
+def _advance(st: State, sl: Slab, params: Params, dec: Decomposition) -> State:
+    """``step.advance`` of the local scene with this device's exchange current, the loads summed."""
+    with halo.exchanging(_SlabExchange(slab=sl, dec=dec)):
+        return _total_loads(advance(st, params, dec.local))
 
 
 def _total_loads(st: State) -> State:
@@ -390,7 +418,8 @@ def _local_prime(st: State, sl: Slab, params: Params, dec: Decomposition):
     st, sl = _rebuild(st, sl, dec)
     st = _exchange(st, sl, dec)
     cfg = dec.local
-    return _total_loads(cfg.coupling_method.prime(st, params, cfg)), sl
+    with halo.exchanging(_SlabExchange(slab=sl, dec=dec)):
+        return _total_loads(cfg.coupling_method.prime(st, params, cfg)), sl
 
 
 def _on_mesh(fn, dec: Decomposition, mesh: Optional[Mesh], out_specs):
@@ -439,7 +468,7 @@ def make_sharded_rollout(dec: Decomposition, n_steps: int, *, mesh: Optional[Mes
             go = jax.lax.pmax(needs_rebuild(st, cfg).astype(jnp.int32), AXIS) > 0
             st, sl = jax.lax.cond(go, lambda a: _rebuild(*a, dec), lambda a: a, (st, sl))
         st = _exchange(st, sl, dec)
-        return _total_loads(advance(st, params, cfg)), sl
+        return _advance(st, sl, params, dec), sl
 
     if checkpoint:
         one_step = jax.checkpoint(one_step, prevent_cse=False)

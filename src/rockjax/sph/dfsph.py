@@ -54,6 +54,7 @@ import jax
 import jax.numpy as jnp
 
 from ..types import Config, Kind, NeighbourList, Params, Particles
+from . import halo
 from .neighbours import neighbour_kind, pairs, take, wrap_positions
 
 __all__ = ["Geometry", "geometry", "lattice_sum", "divergence", "pressure_acceleration", "advance", "prime",
@@ -163,7 +164,8 @@ def _solve(geo: Geometry, v, kappa0, residual, fluid_row, *, tolerance: float, m
     """Projected Jacobi (module docstring) from the warm start ``kappa0`` [nf] (applied first) for the
     signed ``residual(v)`` [nf]; ``fixed``: the sweeps of the differentiable form (None: while_loop)."""
     nf = geo.idx.shape[0]
-    n_fluid = jnp.maximum(jnp.sum(fluid_row), 1)
+    counted = halo.owned(fluid_row)  # the rows whose residuals this device adds to the mean
+    n_fluid = jnp.maximum(halo.total(jnp.sum(counted)), 1)
     step_size = relaxation * geo.factor / dt**2
 
     def kick(v, dkappa):
@@ -172,11 +174,13 @@ def _solve(geo: Geometry, v, kappa0, residual, fluid_row, *, tolerance: float, m
 
     def sweep(v, kappa):
         r = jnp.where(fluid_row, residual(v), 0.0)
-        new = jnp.where(fluid_row, jnp.maximum(kappa + step_size * r, 0.0), 0.0)
+        new = halo.sync(jnp.where(fluid_row, jnp.maximum(kappa + step_size * r, 0.0), 0.0))
         e = jnp.where((new > 0) | (r > 0), jnp.abs(r), 0.0)
-        return kick(v, new - kappa), new, jnp.sum(e) / n_fluid, e
+        mine = e if counted is fluid_row else jnp.where(counted, e, 0.0)  # (e is 0 off the fluid rows)
+        err = halo.total(jnp.sum(mine)) / n_fluid
+        return halo.sync(kick(v, new - kappa)), new, err, e
 
-    v = kick(v, kappa0)
+    v = halo.sync(kick(v, kappa0))
     inf = jnp.asarray(jnp.inf, v.dtype)
     init = (jnp.zeros((), jnp.int32), v, kappa0, inf, jnp.zeros((nf,), v.dtype))
     if fixed is None:
