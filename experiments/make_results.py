@@ -1526,11 +1526,11 @@ def sec_slabs(doc: Doc):
           "not a parallel speed-up; what carries to real devices is the per-device rows and the halo volume. "
           "Halo: 3 list radii (3 (cutoff + skin) = 8.7 dx) on each inner side; the local step runs every row of its "
           "buffers (owned capacity + 2 halo capacities, 1.5x the initial counts), padding included.")
-    rows = [[r.get("date"), r.get("devices"), r.get("n_water"), r.get("owned"), r.get("local_rows"), r.get("halo_rows"),
+    rows = [[r.get("date"), r.get("scheme", "wcsph"), r.get("devices"), r.get("n_water"), r.get("owned"), r.get("local_rows"), r.get("halo_rows"),
              r.get("halo_fraction"), r.get("halo_mb_per_step"), r.get("ms_per_step"), r.get("water_particle_steps_per_s"),
              r.get("sim_s_per_wall_s"), r.get("overhead_ratio"), r.get("status"), r.get("error")]
             for r in recs if r.get("kind") == "case"]
-    doc.p(table(["date", "devices", "water", "owned / device", "local rows / device", "halo rows sent / step",
+    doc.p(table(["date", "scheme", "devices", "water", "owned / device", "local rows / device", "halo rows sent / step",
                  "halo / owned", "halo MB / step", "ms / step (all devices, 2 cores)", "water particle-steps/s",
                  "sim s / wall s", "1 slab / plain rollout", "status", "error"], rows))
     for r in recs:
