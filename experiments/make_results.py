@@ -1561,7 +1561,7 @@ def sec_slabs(doc: Doc):
              r.get("slide_travel"), r.get("max_dx_vs_one_device"), r.get("slide_dx_vs_one_device"), r.get("status"),
              r.get("wall_s_with_compile"), r.get("error")] for r in recs]
     doc.p(table(["date", "devices", "float", "steps", "water", "owned per slab", "halo rows per slab", "slide travel m",
-                 "max water |dx| vs 1 device m", "slide |dx| m", "status", "wall s (with compile)", "error"], rows))
+                 "water: largest position difference vs 1 device m", "slide: position difference m", "status", "wall s (with compile)", "error"], rows))
 
 
 SECTIONS = [sec_sph, sec_driver, sec_checkpoint, sec_skin, sec_time_vs_error, sec_peers, sec_dfsph, sec_wedge_dfsph, sec_blocks, sec_coupled, sec_grad, sec_gpu, sec_calibration, sec_piston,
