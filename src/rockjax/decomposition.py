@@ -17,10 +17,11 @@ the three kinds are mixed; ``Slab.owned`` marks the device's own rows):
   wall neighbour's Adami pressure reads the fluid around that wall, and their new densities come
   from the step's continuity sum over *their* neighbours: three chained pair passes, so three
   layers for ``WCSPH`` with Adami walls (with two layers the trajectories of particles on a slab
-  bound differ from one device's by ~1e-11 of their acceleration per step). Their full records (position, velocity, density, acceleration, ...)
-  are copied from the owner with ``lax.ppermute`` at the start of **every** step, into the slots
-  fixed at the last rebuild, so the local Verlet list stays valid between rebuilds; the local
-  step's results on halo rows are discarded (overwritten at the next exchange).
+  bound differ from one device's by ~1e-11 of their acceleration per step). Their full records
+  (position, velocity, density, acceleration, ...) are copied from the owner with
+  ``lax.ppermute`` at the start of **every** step, into the slots fixed at the last rebuild, so
+  the local Verlet list stays valid between rebuilds; the local step's results on halo rows are
+  discarded (overwritten at the next exchange).
 * padding (``Kind.PAD``): free slots.
 
 At a rebuild (at the start of each block of ``Config.rebuild_every`` steps, and when any device's
@@ -31,9 +32,10 @@ the local list (``step.refresh``). Walls are static: each device holds the walls
 ``halo_width + cutoff + 2 skin`` of its slab, chosen once on the host.
 
 Slab bounds are chosen on the host from the fluid's x quantiles (equal particle counts) or given;
-they stay fixed during a run. Buffers have fixed sizes (``owned``, ``halo``, ``migrate``); an
-overflow sets ``Status.SLAB_OVERFLOW`` and the run must be decomposed again with larger buffers
-(``decompose(capacity_factor=...)``).
+they stay fixed within a compiled rollout. Buffers have fixed sizes (``owned``, ``halo``,
+``migrate``); an overflow sets ``Status.SLAB_OVERFLOW``. The host driver ``run_sharded`` runs in
+chunks and re-decomposes between them: with larger buffers after an overflow (rerunning the
+chunk), at equal counts when the slabs drift apart (load balance).
 
 Blocks are few: every device holds all of them (and all the particles they carry, the tail of
 its wall segment) and advances them identically; each device's fluid loads count its owned rows
@@ -48,11 +50,10 @@ device runs the same sweeps).
 Many hosts (one process per GPU; written for JAX's multi-process runtime, tested here only with
 one process and forced CPU devices)::
 
-    # launched once per GPU, e.g. srun -n 16 python run.py, or by hand with
-    # JAX_COORDINATOR=host0:1234 and each process's id
+    # launched once per GPU, e.g. `srun -n 16 python run.py` (SLURM), or by hand on each host
     import jax
-    jax.distributed.initialize()          # reads the cluster (SLURM, ...) or pass coordinator_address,
-                                          # num_processes, process_id
+    jax.distributed.initialize()          # from the cluster's environment, or pass
+                                          # coordinator_address="host0:1234", num_processes, process_id
     from rockjax import decomposition as D, scenes
     scene = scenes.dam_break(dx=...)      # every process builds the same scene (deterministic)
     mesh = D.make_mesh(jax.device_count())             # all processes' devices, in process order
@@ -61,8 +62,8 @@ one process and forced CPU devices)::
     ss = D.sharded_prime(dec, ss, scene.params, mesh=mesh)
     ss = jax.jit(D.make_sharded_rollout(dec, 800, mesh=mesh, checkpoint=False))(ss, scene.params)
     out = D.gather_fluid(dec, ss)          # on every process (process_allgather)
-    if jax.process_index() == 0:
-        ...                                # write one HDF5 file from process 0
+    # or all of it: D.run_sharded(scene, jax.device_count(), n_steps, mesh=mesh, out="run.h5")
+    # (process 0 writes the one run file)
 """
 
 from __future__ import annotations
@@ -627,8 +628,9 @@ def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int]
     if rebalance_above is not None and not rebalance_above > 1.0:
         raise ValueError(f"run_sharded: rebalance_above must be > 1 or None (got {rebalance_above})")
     growable = int(Status.growable()) | int(Status.SLAB_OVERFLOW)
+    mesh = make_mesh(n_slabs) if mesh is None else mesh
     dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **decompose_kw)
-    ss = sharded_prime(dec, ss, scene.params, mesh=mesh)
+    ss = sharded_prime(dec, place(ss, mesh), scene.params, mesh=mesh)
     later_kw = {key: v for key, v in decompose_kw.items() if key != "bounds"}
     writer = None
     if out is not None and jax.process_index() == 0:
@@ -667,6 +669,7 @@ def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int]
                     capacity_factor *= 1.5
                 scene = scene.replace(config=config, state=start)
                 dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **later_kw)
+                ss = place(ss, mesh)
                 continue  # not primed again: the records carry their accelerations; the chunk's first rebuild lists them
             ss, done = res, done + n
             _frame(writer, out, dec, ss, scene, observe)
@@ -675,6 +678,7 @@ def run_sharded(scene, n_slabs: int, n_steps: int, *, chunk_steps: Optional[int]
                 rebalances += 1
                 scene = scene.replace(state=gather_state(dec, ss, scene))
                 dec, ss = decompose(scene, n_slabs, capacity_factor=capacity_factor, **later_kw)
+                ss = place(ss, mesh)
         return ShardedRun(dec=dec, state=ss, regrows=regrows, rebalances=rebalances)
     finally:
         if writer is not None:
