@@ -22,7 +22,8 @@ dx 0.02 m, 3840 water particles) cut into four slabs of equal counts along x:
 The coupled wedge (``_WEDGE_SCRIPT``, float64): ``sliding_wedge`` at dx 0.03 m (1344 water
 particles, boundary-particle coupling), the wedge launched at 1.5 m/s down the 40 degree slope so
 that it plunges ~12 cm into the water within 200 steps (fluid load ~25 N), three slabs with bounds
-at x = 0.15 and 0.5 m, the first through the water the wedge pushes: water positions / velocities
+at x = 0.06 and 0.5 m, the first crossed by the wedge's front (x = 0 -> 0.09 m) in the water it
+pushes: water positions / velocities
 equal one device's to 1e-12 m / 1e-10 m/s, the wedge's centroid to 1e-12 m and its fluid load to
 1e-9 relative (every device applies the same summed load: the wedge is the same on all of them).
 The slow test differentiates 48 steps of it w.r.t. the block density, friction angle and alpha:
@@ -153,7 +154,7 @@ th = math.radians(40.0)
 down = jnp.asarray([math.cos(th), 0.0, -math.sin(th)])
 sc = sc.replace(state=sc.state.replace(blocks=sc.state.blocks.replace(v=sc.state.blocks.v.at[0].set(1.5 * down))))
 cfg = sc.config
-dec, ss = D.decompose(sc, 3, bounds=[0.15, 0.5])
+dec, ss = D.decompose(sc, 3, bounds=[0.06, 0.5])
 out = dict(devices=jax.device_count(), n_water=dec.n_water)
 if sys.argv[1] == "trajectory":
     n = 200
@@ -164,12 +165,15 @@ if sys.argv[1] == "trajectory":
     fl = np.asarray(P.kind) == Kind.FLUID
     o = np.argsort(np.asarray(P.pid)[fl])
     bx, F = np.asarray(sh.state.blocks.x), np.asarray(sh.state.coupling.force)
+    from rockjax.blocks.model import world_vertices
+    front = lambda B: float(np.asarray(world_vertices(B))[0, :, 0].max())  # the wedge's front, x [m]
     out.update(dx=float(np.abs(g["x"] - np.asarray(P.x)[fl][o]).max()), dv=float(np.abs(g["v"] - np.asarray(P.v)[fl][o]).max()),
                block_dx=float(np.abs(bx - np.asarray(ref.blocks.x)[None]).max()),
                moved=float(np.abs(np.asarray(ref.blocks.x) - np.asarray(sc.state.blocks.x)).max()),
                load=float(np.linalg.norm(np.asarray(ref.coupling.force)[0])),
                load_rel=float(np.abs(F - np.asarray(ref.coupling.force)[None]).max() / np.abs(np.asarray(ref.coupling.force)).max()),
-               migrated=np.asarray(sh.slab.migrated).tolist(), status=D.slab_status(sh) | int(ref.status))
+               migrated=np.asarray(sh.slab.migrated).tolist(), status=D.slab_status(sh) | int(ref.status),
+               front=[front(sc.state.blocks), front(ref.blocks)], bound=dec.bounds[0])
 else:
     n = 48
     def functional(x, w, block_x):
@@ -263,6 +267,7 @@ def test_sharded_coupled_wedge_equals_one_device():
     r = _run(_WEDGE_SCRIPT, "trajectory")
     assert r["devices"] == 4 and r["status"] == 0, r
     assert r["moved"] > 0.1 and r["load"] > 5.0, r  # the wedge plunges into the water
+    assert r["front"][0] < r["bound"] < r["front"][1], r  # ... and across a slab bound
     assert r["dx"] < 1e-12 and r["dv"] < 1e-10, r
     assert r["block_dx"] < 1e-12, r
     assert r["load_rel"] < 1e-9, r
