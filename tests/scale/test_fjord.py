@@ -3,7 +3,7 @@
 * ``fjord_estimate`` (counts from the geometry, no build) against the built scene at dx = 2 m
   (134k water particles): water within 5 %, fixed walls within 15 % (the built shell adds corner
   and staircase particles), the slide's boundary particles exact.
-* The slide, started 10 m up the 30 degree flank (in the air), slides as a block on an incline
+* (slow) The slide, started 10 m up the 30 degree flank (in the air), slides as a block on an incline
   does: after ~1 s its centroid has moved ``g (sin a - cos a tan phi) t^2 / 2`` (~0.9 m at
   friction 20 degrees) along the flank, to 1.5 % at cfl 0.1 and converging with the step, at
   dx = 4 m.
@@ -55,6 +55,7 @@ def _slide_error(cfl: float) -> float:
     return moved / expected - 1.0
 
 
+@pytest.mark.slow
 def test_fjord_slide_slides_down_the_flank_as_a_block_on_an_incline():
     """The slide starts resting on the flank with no penetration; the penalty contact's start-up
     (the block sinks ~2 cm into the flank at the default dt before the normal force carries it)
