@@ -527,22 +527,27 @@ def slab_status(ss: ShardedState) -> int:
     return int(bits)
 
 
+def _owned_water(dec: Decomposition, ss: ShardedState, who: str):
+    """``take(a)``: the owned water rows of a stacked per-particle array ``a`` [D, N, ...] on the
+    host, in the scene's particle order (``pid``); ValueError naming ``who`` if a particle is
+    missing or owned twice (the decomposition lost track of it)."""
+    nf = dec.n_local
+    owned = _host(ss.slab.owned)
+    pid = _host(ss.state.particles.pid)[:, :nf][owned]
+    if len(np.unique(pid)) != len(pid) or len(pid) != dec.n_water:
+        raise ValueError(f"{who}: {len(pid)} owned rows ({len(np.unique(pid))} distinct) for "
+                         f"{dec.n_water} water particles: the decomposition lost track of some")
+    order = np.argsort(pid, kind="stable")
+    return lambda a: _host(a)[:, :nf][owned][order]
+
+
 def gather_fluid(dec: Decomposition, ss: ShardedState) -> dict:
     """The owned fluid rows of every device on the host, in the scene's original particle order
     (``pid``): ``x`` [n, 3], ``v`` [n, 3], ``rho`` [n], ``p`` [n] and ``pid`` [n]; ValueError if
     a particle is missing or owned twice (the decomposition lost track of it)."""
+    take = _owned_water(dec, ss, "gather_fluid")
     P = ss.state.particles
-    nf = dec.n_local
-    owned = _host(ss.slab.owned)
-    pid = _host(P.pid)[:, :nf][owned]
-    order = np.argsort(pid, kind="stable")
-    out = {"pid": pid[order]}
-    for name in ("x", "v", "rho", "p"):
-        out[name] = _host(getattr(P, name))[:, :nf][owned][order]
-    if len(np.unique(pid)) != len(pid) or len(pid) != dec.n_water:
-        raise ValueError(f"gather_fluid: {len(pid)} owned rows ({len(np.unique(pid))} distinct) for "
-                         f"{dec.n_water} water particles: the decomposition lost track of some")
-    return out
+    return {name: take(getattr(P, name)) for name in ("pid", "x", "v", "rho", "p")}
 
 
 def gather_state(dec: Decomposition, ss: ShardedState, scene) -> State:
@@ -555,19 +560,13 @@ def gather_state(dec: Decomposition, ss: ShardedState, scene) -> State:
     cfg = dec.config
     if cfg.n_fluid != dec.n_water:
         raise ValueError("gather_state: the scene's fluid segment holds padding; gather_fluid returns its water")
-    P = ss.state.particles
+    take = _owned_water(dec, ss, "gather_state")
     nf = dec.n_local
-    owned = _host(ss.slab.owned)
-    pid = _host(P.pid)[:, :nf][owned]
-    if len(np.unique(pid)) != len(pid) or len(pid) != dec.n_water:
-        raise ValueError(f"gather_state: {len(pid)} owned rows for {dec.n_water} water particles")
-    order = np.argsort(pid, kind="stable")
     G = scene.state.particles.replace(owned=None)
-    P = P.replace(owned=None)
+    P = ss.state.particles.replace(owned=None)
 
     def merge(a, g):
-        water = _host(a)[:, :nf][owned][order]
-        return jnp.concatenate([jnp.asarray(water, g.dtype), g[cfg.n_fluid:]])
+        return jnp.concatenate([jnp.asarray(take(a), g.dtype), g[cfg.n_fluid:]])
 
     Q = jax.tree_util.tree_map(merge, P, G)
     # the walls' state (the Adami density and pressure that the next step's sums read) from the device

@@ -64,6 +64,7 @@ from rockjax import decomposition as D
 from rockjax.scenes.fluid import dam_break
 from rockjax.step import prime
 from rockjax.rollout import make_rollout
+from rockjax.driver import host_frame
 from rockjax.types import Kind
 
 sc = dam_break(dx=0.02, column_length=0.8, column_height=0.24, column_width=0.16, tank_length=1.2,
@@ -79,10 +80,8 @@ out["placed_devices"] = len(placed.state.particles.x.sharding.device_set)
 sh = jax.jit(D.make_sharded_rollout(dec, n, checkpoint=False))(D.sharded_prime(dec, placed, sc.params), sc.params)
 g = D.gather_fluid(dec, sh)
 ref, _ = jax.jit(make_rollout(cfg, n // k, checkpoint=False))(prime(sc.state, sc.params, cfg), sc.params)
-P = ref.particles
-fl = np.asarray(P.kind) == Kind.FLUID
-o = np.argsort(np.asarray(P.pid)[fl])
-x1, v1 = np.asarray(P.x)[fl][o], np.asarray(P.v)[fl][o]
+h = host_frame(ref)  # original particle order: the water first
+x1, v1 = h["x"][:dec.n_water], h["v"][:dec.n_water]
 x0 = np.asarray(sc.state.particles.x)[np.asarray(sc.state.particles.kind) == Kind.FLUID]
 out.update(dx=float(np.abs(g["x"] - x1).max()), dv=float(np.abs(g["v"] - v1).max()),
            moved=float(np.abs(x1 - x0).max()), vmax=float(np.abs(v1).max()),
@@ -146,6 +145,7 @@ from rockjax import decomposition as D
 from rockjax.calibrate import get_leaf
 from rockjax.step import prime
 from rockjax.rollout import make_rollout
+from rockjax.driver import host_frame
 from rockjax.types import Kind
 
 sc = scenes.sliding_wedge(dx=0.03, slope_angle_deg=40.0, block_length=0.2, block_width=0.15, water_depth=0.2,
@@ -161,13 +161,11 @@ if sys.argv[1] == "trajectory":
     sh = jax.jit(D.make_sharded_rollout(dec, n, checkpoint=False))(D.sharded_prime(dec, ss, sc.params), sc.params)
     g = D.gather_fluid(dec, sh)
     ref, _ = jax.jit(make_rollout(cfg, n // cfg.rebuild_every, checkpoint=False))(prime(sc.state, sc.params, cfg), sc.params)
-    P = ref.particles
-    fl = np.asarray(P.kind) == Kind.FLUID
-    o = np.argsort(np.asarray(P.pid)[fl])
+    h = host_frame(ref)  # original particle order: the water first
     bx, F = np.asarray(sh.state.blocks.x), np.asarray(sh.state.coupling.force)
     from rockjax.blocks.model import world_vertices
     front = lambda B: float(np.asarray(world_vertices(B))[0, :, 0].max())  # the wedge's front, x [m]
-    out.update(dx=float(np.abs(g["x"] - np.asarray(P.x)[fl][o]).max()), dv=float(np.abs(g["v"] - np.asarray(P.v)[fl][o]).max()),
+    out.update(dx=float(np.abs(g["x"] - h["x"][:dec.n_water]).max()), dv=float(np.abs(g["v"] - h["v"][:dec.n_water]).max()),
                block_dx=float(np.abs(bx - np.asarray(ref.blocks.x)[None]).max()),
                moved=float(np.abs(np.asarray(ref.blocks.x) - np.asarray(sc.state.blocks.x)).max()),
                load=float(np.linalg.norm(np.asarray(ref.coupling.force)[0])),
@@ -203,6 +201,7 @@ from rockjax import DFSPH, decomposition as D
 from rockjax.scenes.fluid import dam_break
 from rockjax.step import prime
 from rockjax.rollout import make_rollout
+from rockjax.driver import host_frame
 from rockjax.types import Kind
 
 grad = sys.argv[1] == "gradient"
@@ -219,10 +218,10 @@ if not grad:
     sh = jax.jit(D.make_sharded_rollout(dec, n, checkpoint=False))(D.sharded_prime(dec, ss, sc.params), sc.params)
     g = D.gather_fluid(dec, sh)
     ref, _ = jax.jit(make_rollout(cfg, n // k, checkpoint=False))(prime(sc.state, sc.params, cfg), sc.params)
+    h = host_frame(ref)  # original particle order: the water first
+    x1, v1 = h["x"][:dec.n_water], h["v"][:dec.n_water]
     P = ref.particles
     fl = np.asarray(P.kind) == Kind.FLUID
-    o = np.argsort(np.asarray(P.pid)[fl])
-    x1, v1 = np.asarray(P.x)[fl][o], np.asarray(P.v)[fl][o]
     x0 = np.asarray(sc.state.particles.x)[np.asarray(sc.state.particles.kind) == Kind.FLUID]
     sweeps = np.asarray(sh.state.particles.solver)[:, :dec.n_local, 4:6][np.asarray(sh.slab.owned)]
     out.update(dx=float(np.abs(g["x"] - x1).max()), dv=float(np.abs(g["v"] - v1).max()),

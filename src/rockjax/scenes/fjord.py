@@ -9,6 +9,7 @@ prints for any ``--dx``.
 
 from __future__ import annotations
 
+import inspect
 import math
 
 import numpy as np
@@ -24,6 +25,10 @@ __all__ = ["fjord", "fjord_estimate"]
 #: WCSPH throughputs the estimate uses [water particle-steps/s]: one H200 at 1M water particles (f32),
 #: two CPU cores at 80k (RESULTS.md "GPU" and "SPH throughput"); per device, before decomposition
 THROUGHPUT = {"h200": 116e6, "cpu_2_cores": 1.3e6}
+
+#: ``fjord``'s options that shape the valley and the slide (``_check``'s keywords besides dx)
+_GEOMETRY = ("length", "depth", "bottom_width", "flank_angle_deg", "freeboard", "slide_length", "slide_width",
+             "slide_thickness", "slide_x", "slide_start")
 
 
 def _geometry(*, length, depth, bottom_width, flank_angle_deg, freeboard):
@@ -149,19 +154,18 @@ def fjord_estimate(*, n_devices: int = 1, t_end: float = 60.0, capacity_factor: 
     (t_end / dt, dt as ``fjord`` sets it) x particles per device / ``THROUGHPUT``, with the halo rows
     counted as work (no communication time).
     """
-    dx = float(options.get("dx", 0.5))
-    opts = dict(length=400.0, depth=30.0, bottom_width=40.0, flank_angle_deg=30.0, freeboard=40.0, slide_length=60.0,
-                slide_width=80.0, slide_thickness=10.0, slide_x=100.0, slide_start=0.0)
-    unknown = set(options) - set(opts) - {"dx", "scheme", "h_factor", "cfl", "c0", "coupling", "block_density",
-                                         "friction_angle_deg", "rebuild_every"}
+    known = inspect.signature(fjord).parameters
+    unknown = set(options) - set(known)
     if unknown:
         raise ValueError(f"fjord_estimate: unknown options {sorted(unknown)}")
-    opts.update({k: v for k, v in options.items() if k in opts})
+    values = {k: options.get(k, p.default) for k, p in known.items()}  # fjord's defaults where not given
+    dx = float(values["dx"])
+    opts = {k: values[k] for k in _GEOMETRY}
     _check("fjord_estimate", dx=dx, **opts)
     if int(n_devices) < 1:
         raise ValueError(f"fjord_estimate: n_devices must be >= 1 (got {n_devices})")
-    scheme = as_scheme(options.get("scheme", WCSPH()))
-    h_factor, cfl, _ = scheme_resolution(scheme, options.get("h_factor"), options.get("cfl"))
+    scheme = as_scheme(values["scheme"])
+    h_factor, cfl, _ = scheme_resolution(scheme, values["h_factor"], values["cfl"])
     res = Resolution(dx, h_factor)
     L, d, b, f = opts["length"], opts["depth"], opts["bottom_width"], opts["freeboard"]
     a = math.radians(opts["flank_angle_deg"])
@@ -176,7 +180,7 @@ def fjord_estimate(*, n_devices: int = 1, t_end: float = 60.0, capacity_factor: 
     shell_depth = res.wall_layers * dx  # boundary particles fill the block to this depth inside its faces
     core = np.prod([max(0.0, e - 2 * shell_depth) for e in (sl, sw, st)])
     n_slide = (sl * sw * st - core) / dx ** 3
-    c0 = options.get("c0") or 10.0 * math.sqrt(GRAVITY * (d + f))
+    c0 = values["c0"] or 10.0 * math.sqrt(GRAVITY * (d + f))
     dt = stable_dt(water_params(res, c0=c0), scheme=scheme, cfl=cfl)
     steps = int(math.ceil(t_end / dt))
     radius = res.support + 0.6 * dx  # the list radius: coupled scenes' skin is 0.6 dx
