@@ -222,7 +222,7 @@ class DFSPH(FluidScheme):
     ``max_iterations``: the sweeps of each solve (a solve still above its tolerance at the cap sets
     ``Status.SOLVER_NOT_CONVERGED``), the divergence solve's least ``min_divergence_iterations``
     (1, as SPlisHSPlasH's; the density solve's 2 as its); ``iterations``: None runs each solve until it converges (a
-    ``while_loop``: forward only), an int runs exactly that many sweeps, masked once converged
+    ``while_loop``: forward only), an int runs exactly that many sweeps, all of them
     (differentiable); ``divergence_solve``: run the divergence solve; ``min_neighbours``: rows
     with fewer neighbours get no divergence correction (free surface); ``warm_start``: the share of
     the previous step's pressures each solve starts from; ``relaxation``: the Jacobi step, below
@@ -251,9 +251,13 @@ class DFSPH(FluidScheme):
     warm_start: float = 1.0
     relaxation: float = 0.4
     mach: float = 0.1
+    wall_pressure: str = "extrapolated"
 
     def __post_init__(self):
         _check_type("DFSPH", "kernel", self.kernel, Kernel)
+        if self.wall_pressure not in ("extrapolated", "akinci"):
+            raise ValueError(f"DFSPH: wall_pressure must be 'extrapolated' or 'akinci' (got "
+                             f"{self.wall_pressure!r})")
         _check_type("DFSPH", "viscosity", self.viscosity, Viscosity)
         for field in ("tolerance", "divergence_tolerance", "mach"):
             value = getattr(self, field)
