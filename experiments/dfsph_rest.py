@@ -6,7 +6,9 @@ reference, and, with ``--peer-python``, SPlisHSPlasH 2.19's DFSPH on the same wa
 particles on the tank faces, its "Standard" viscosity = ``nu``, fixed dt 0.4 dx / sqrt(2 g H), its
 default solver settings but for maxError 0.05 %, as ``shared/peers/splash_bench.py``). Per case:
 the rms particle speed at 0.1 ... 1.0 s, and for rockjax the pressure at depths > 0.05 m over
-rho0 g d (mean and sd over the steps of the last half second) and the sweeps per step.
+rho0 g d (mean and sd over the steps of the last half second), the time-mean pressure of the
+particle layers at 0.05 ... 0.17 m depth over rho0 g d, and the sweeps per step. ``--wall-pressure``
+runs DFSPH with each wall model (``DFSPH.wall_pressure``).
 
 JSON lines (``--out`` appends). Nothing here is a test.
 
@@ -31,23 +33,25 @@ from jsonl_out import emit
 
 DX, DEPTH, T_END = 0.02, 0.2, 1.0
 TIMES = [0.1, 0.25, 0.5, 0.75, 1.0]
+LAYERS = [0.05, 0.08, 0.11, 0.14, 0.17]  # depths [m] of the layer pressures (time means over the last half)
 
 
-def run_rockjax(scheme_name: str, nu: float) -> dict:
+def run_rockjax(scheme_name: str, nu: float, wall_pressure: str = "extrapolated") -> dict:
     import jax
 
     import rockjax as rj
     from rockjax.sph.viscosity import Laminar
     from rockjax.step import make_step, prime
 
-    scheme = rj.DFSPH(viscosity=Laminar()) if scheme_name == "dfsph" else rj.WCSPH(viscosity=Laminar())
-    sc = rj.scenes.hydrostatic_tank(dx=DX, depth=DEPTH, scheme=scheme, nu=nu)
+    visc = {} if nu is None else {"viscosity": Laminar()}  # None: the scheme's default (artificial) viscosity
+    scheme = (rj.DFSPH(wall_pressure=wall_pressure, **visc) if scheme_name == "dfsph" else rj.WCSPH(**visc))
+    sc = rj.scenes.hydrostatic_tank(dx=DX, depth=DEPTH, scheme=scheme, **({} if nu is None else {"nu": nu}))
     config = sc.config.replace(rebuild_every=1)
     step = jax.jit(make_step(config))
     state = prime(sc.state, sc.params, config)
     n = int(round(T_END / config.dt))
     marks = {int(round(t / config.dt)) - 1: t for t in TIMES}
-    v_rms, p_ratio, sweeps = {}, [], []
+    v_rms, p_ratio, sweeps, layers = {}, [], [], []
     for k in range(n):
         state = step(state, sc.params)
         P = state.particles
@@ -59,13 +63,19 @@ def run_rockjax(scheme_name: str, nu: float) -> dict:
             surface = z.max() + 0.5 * DX
             deep = surface - z > 0.05
             p_ratio.append(float(p[deep].mean() / (1000 * 9.81 * (surface - z[deep])).mean()))
+            d = DEPTH - z  # below the lattice's free surface (dx/2 above its top row)
+            layers.append([p[np.abs(d - dd) < DX / 2].mean() / (1000 * 9.81 * dd) for dd in LAYERS])
             if P.solver is not None:
                 sweeps.append(np.asarray(P.solver)[0, 4:6])
     rec = {"code": "rockjax", "scheme": scheme_name, "kernel": config.scheme.kernel.name,
+           "viscosity": config.scheme.viscosity.name,
            "h_dx": round(float(sc.params.fluid.h) / DX, 3), "nu": nu, "dt": config.dt, "steps": n, "status": int(state.status),
            "v_rms": {str(t): round(v, 5) for t, v in v_rms.items()},
            "p_ratio_mean_last_half": round(float(np.mean(p_ratio)), 4),
-           "p_ratio_sd_last_half": round(float(np.std(p_ratio)), 4)}
+           "p_ratio_sd_last_half": round(float(np.std(p_ratio)), 4),
+           "p_ratio_layers": [round(float(r), 4) for r in np.mean(layers, axis=0)], "layers_m": LAYERS}
+    if scheme_name == "dfsph":
+        rec["wall_pressure"] = wall_pressure
     if sweeps:
         rec["sweeps_density_divergence"] = [round(float(s), 2) for s in np.mean(sweeps, axis=0)]
     return rec
@@ -124,17 +134,25 @@ def run_peer(python: str, nu: float) -> dict:
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--nu", type=float, nargs="+", default=[1e-6, 1e-3, 1e-2])
+    ap.add_argument("--nu", type=float, nargs="*", default=[1e-6, 1e-3, 1e-2])
     ap.add_argument("--schemes", nargs="*", default=["dfsph", "wcsph"])
     ap.add_argument("--peer-python", default=None, help="a python with pysplishsplash 2.19 (the peer venv)")
+    ap.add_argument("--wall-pressure", nargs="+", default=["extrapolated"], choices=["extrapolated", "akinci"],
+                    help="DFSPH's wall pressure models to run (DFSPH.wall_pressure)")
+    ap.add_argument("--artificial", action="store_true",
+                    help="also run DFSPH with its default (artificial) viscosity instead of the laminar nu")
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
     meta = {"bench": "dfsph_rest", "date": datetime.date.today().isoformat(), "dx": DX, "depth": DEPTH}
+    if args.artificial:  # the schemes' default viscosity (no peer counterpart)
+        for wp in args.wall_pressure:
+            emit(dict(meta, **run_rockjax("dfsph", None, wp)), args.out)
     for nu in args.nu:
         for scheme in args.schemes:
             if scheme == "wcsph" and nu != args.nu[0]:
                 continue  # WCSPH's reference: one viscosity
-            emit(dict(meta, **run_rockjax(scheme, nu)), args.out)
+            for wp in (args.wall_pressure if scheme == "dfsph" else [None]):
+                emit(dict(meta, **run_rockjax(scheme, nu, *([wp] if wp else []))), args.out)
         if args.peer_python:
             emit(dict(meta, **run_peer(args.peer_python, nu)), args.out)
 

@@ -22,6 +22,7 @@ fraction e carries e x 3 dx / draft more load.
     python experiments/held_box_load.py --coupling boundary_particles boundary_integral --dx 0.01
     python experiments/held_box_load.py --coupling boundary_integral --guard-scale 4
     python experiments/held_box_load.py --coupling boundary_particles penalty --scheme dfsph
+    python experiments/held_box_load.py --coupling boundary_particles --scheme dfsph --wall-pressure akinci
 
 ``--guard-scale`` multiplies the penalty's stiffness (its damping by the square root): with boundary
 particles and BOUNDARY_INTEGRAL that is the guard within dx/4, which water at rest should not touch.
@@ -39,7 +40,7 @@ from jsonl_out import emit
 
 
 def held_box(coupling: str, *, box, tank, dx: float, h_factor: float, depth: float = 0.16, draft: float = 0.04,
-             guard_scale: float = 1.0, scheme: str = "wcsph"):
+             guard_scale: float = 1.0, scheme: str = "wcsph", wall_pressure: str | None = None):
     """``(scene, config, params)``: ``scenes.floating_box`` with the box at ``draft`` and held there
     (PRESCRIBED motion with a zero stroke); ``guard_scale`` multiplies the penalty's stiffness (and
     its damping by the square root, the same damping ratio). Also used by ``wall_consistency.py``."""
@@ -55,7 +56,10 @@ def held_box(coupling: str, *, box, tank, dx: float, h_factor: float, depth: flo
         cp = params.coupling
         params = params.replace(coupling=cp.replace(penalty_stiffness=guard_scale * cp.penalty_stiffness,
                                                     penalty_damping=guard_scale**0.5 * cp.penalty_damping))
-    return sc, sc.config.replace(blocks=held, scheme=rj.sph.from_names(scheme)), params
+    fluid = rj.sph.from_names(scheme)
+    if wall_pressure is not None:
+        fluid = dataclasses.replace(fluid, wall_pressure=wall_pressure)
+    return sc, sc.config.replace(blocks=held, scheme=fluid), params
 
 
 def scene_arguments(ap: argparse.ArgumentParser, *, box, tank) -> None:
@@ -69,7 +73,7 @@ def scene_arguments(ap: argparse.ArgumentParser, *, box, tank) -> None:
 
 
 def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: float, depth: float = 0.16,
-              draft: float = 0.04, guard_scale: float = 1.0, scheme: str = "wcsph") -> dict:
+              draft: float = 0.04, guard_scale: float = 1.0, scheme: str = "wcsph", wall_pressure: str | None = None) -> dict:
     import jax
     import jax.numpy as jnp
 
@@ -78,7 +82,7 @@ def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: fl
     from rockjax.rollout import scheduled_step
 
     sc, config, params = held_box(coupling, box=box, tank=tank, dx=dx, h_factor=h_factor, depth=depth, draft=draft,
-                                  guard_scale=guard_scale, scheme=scheme)
+                                  guard_scale=guard_scale, scheme=scheme, wall_pressure=wall_pressure)
     archimedes = sc.params.fluid.rho0 * 9.81 * box[0] * box[1] * draft
     one = scheduled_step(config, period=32)
     n = int(round(t_end / config.dt))
@@ -116,7 +120,8 @@ def held_load(coupling: str, *, box, tank, dx: float, t_end: float, h_factor: fl
         raise RuntimeError(f"held box ({coupling}): status {rj.Status.describe(bits)}")
     mean, n_within, wall_term, n_under = (float(v) / (n - n0) for v in total)
     nominal = box[0] * box[1] * 3 * dx / dx**3  # water particles a 3 dx slab under the bottom face holds on the lattice
-    return {"bench": "held_box_load", "coupling": coupling, "scheme": scheme, "dx": dx, "h_factor": h_factor, "box": list(box),
+    return {"bench": "held_box_load", "coupling": coupling, "scheme": scheme,
+            **({"wall_pressure": config.scheme.wall_pressure} if scheme == "dfsph" else {}), "dx": dx, "h_factor": h_factor, "box": list(box),
             "tank": list(tank), "guard_scale": guard_scale, "draft": draft, "n_fluid": config.n_fluid, "steps": n,
             "t_end": n * config.dt,
             "archimedes_N": float(archimedes), "load_t0_N": load0, "load_mean_N": mean, "ratio": mean / float(archimedes),
@@ -132,10 +137,12 @@ def main(argv=None):
     ap.add_argument("--guard-scale", type=float, default=1.0,
                     help="multiply the penalty's stiffness by this (its damping by the square root)")
     ap.add_argument("--scheme", default="wcsph", help="the fluid scheme (wcsph, dfsph; the scene's dt either way)")
+    ap.add_argument("--wall-pressure", default=None, choices=["extrapolated", "akinci"],
+                    help="DFSPH's wall pressure (DFSPH.wall_pressure; default the scheme's)")
     a = ap.parse_args(argv)
     for c in a.coupling:
         emit(held_load(c, box=tuple(a.box), tank=tuple(a.tank), dx=a.dx, t_end=a.t_end, h_factor=a.h_factor,
-                       guard_scale=a.guard_scale, scheme=a.scheme), a.out)
+                       guard_scale=a.guard_scale, scheme=a.scheme, wall_pressure=a.wall_pressure), a.out)
 
 
 if __name__ == "__main__":

@@ -996,11 +996,13 @@ def sec_held_box(doc: Doc):
           "the water particles in the 3 dx slab under the bottom face over the lattice's count there (1 at t = 0; "
           "the load of a held body in still water follows where the water sits: a slab short by e carries "
           "e x 3 dx / draft more load); `guard x`: the penalty's stiffness multiplied by this (`--guard-scale`; "
-          "its damping by the square root).")
+          "its damping by the square root). DFSPH rows with a wall model ran `DFSPH.wall_pressure` so; the earlier "
+          "DFSPH rows ran Akinci's walls with Wendland C2 at h = 1.3 dx.")
     doc.p(table(["coupling", "scheme", "box [m]", "tank [m]", "dx [m]", "h / dx", "guard x", "n_fluid", "steps", "Archimedes N",
                  "load t = 0 N", "mean load N", "ratio", "ratio t = 0", "within r0", "wall term N", "fill under", "wall s",
                  "load", "date"],
-                [[r["coupling"], r.get("scheme", "wcsph"), " x ".join(f"{v:g}" for v in r["box"]), " x ".join(f"{v:g}" for v in r["tank"]),
+                [[r["coupling"], r.get("scheme", "wcsph") + (f" ({r['wall_pressure']} walls)" if r.get("wall_pressure") else ""),
+                  " x ".join(f"{v:g}" for v in r["box"]), " x ".join(f"{v:g}" for v in r["tank"]),
                   r["dx"], r["h_factor"], r.get("guard_scale", 1.0), r["n_fluid"], r["steps"], r["archimedes_N"], r["load_t0_N"], r["load_mean_N"],
                   r["ratio"], r["ratio_t0"], r.get("n_within_r0", "-"), r.get("wall_term_N") or "-", r.get("fill_under", "-"), r["wall_s"],
                   r.get("load"), r.get("date")] for r in recs]))
@@ -1478,14 +1480,16 @@ def sec_dfsph(doc: Doc):
               "SPlisHSPlasH 2.19 DFSPH with its Standard viscosity = nu; for rockjax also the pressure at depths "
               "> 0.05 m over rho0 g d (mean and sd over the steps of the last half second) and the mean sweeps "
               "per step (density, divergence). rockjax DFSPH rows without a kernel ran Wendland C2 at h = 1.3 dx and "
-              "dt = 0.25 h / (c0 / 10); the later ones the cubic spline at h = dx and dt = 0.4 dx / (c0 / 10).")
+              "dt = 0.25 h / (c0 / 10); the later ones the cubic spline at h = dx and dt = 0.4 dx / (c0 / 10). "
+              "`walls`: `DFSPH.wall_pressure` (rows without it: Akinci's); `layers`: the time-mean pressure of the "
+              "particle layers at 0.05, 0.08, 0.11, 0.14, 0.17 m depth over rho0 g d.")
         times = sorted({t for r in rest for t in r.get("v_rms", {})}, key=float)
-        rows = [[r.get("code"), r.get("scheme"), r.get("kernel"), r.get("h_dx"), r.get("nu"), r.get("dt")]
+        rows = [[r.get("code"), r.get("scheme"), r.get("wall_pressure"), r.get("kernel"), r.get("h_dx"), r.get("nu"), r.get("dt")]
                 + [r.get("v_rms", {}).get(t) for t in times]
-                + [r.get("p_ratio_mean_last_half"), r.get("p_ratio_sd_last_half"), r.get("sweeps_density_divergence"),
-                   r.get("date")] for r in rest if "error" not in r]
-        doc.p(table(["code", "scheme", "kernel", "h/dx", "nu m^2/s", "dt s"] + [f"v rms {t} s" for t in times]
-                    + ["p / rho g d", "sd", "sweeps", "date"], rows))
+                + [r.get("p_ratio_mean_last_half"), r.get("p_ratio_sd_last_half"), r.get("p_ratio_layers"),
+                   r.get("sweeps_density_divergence"), r.get("date")] for r in rest if "error" not in r]
+        doc.p(table(["code", "scheme", "walls", "kernel", "h/dx", "nu m^2/s", "dt s"] + [f"v rms {t} s" for t in times]
+                    + ["p / rho g d", "sd", "layers", "sweeps", "date"], rows))
 
 
 def sec_wedge_dfsph(doc: Doc):

@@ -9,7 +9,11 @@
   box (no walls) vanishes to round-off for any pressures;
 * a solve that cannot converge within its cap is reported by the driver (step and cause), not
   passed over;
-* a run resumed from its checkpoint continues it exactly (the warm-start pressures are state).
+* a run resumed from its checkpoint continues it exactly (the warm-start pressures are state);
+* water at rest in a tank carries the hydrostatic pressure ``rho0 g d`` (closed form; time mean over
+  the second half second, solves at 1e-4) with walls carrying the extrapolated pressure
+  (``DFSPH(wall_pressure="extrapolated")``; Akinci's walls, the default, give 4-16 % more), and
+  its level does not drift.
 
 Scene: a 4 x 4 x 8-particle water column (dx 0.025 m) collapsing in a 0.2 m tank (dam break), a
 few steps in, when the flow compresses the water against the walls.
@@ -123,3 +127,57 @@ def test_checkpoint_and_resume_continue_the_run_exactly(tmp_path):
     ia, ib = np.argsort(np.asarray(a.pid)), np.argsort(np.asarray(b.pid))
     assert np.array_equal(np.asarray(a.x)[ia], np.asarray(b.x)[ib])
     assert np.array_equal(np.asarray(a.solver)[ia], np.asarray(b.solver)[ib])
+
+
+HYDRO_DX, HYDRO_DEPTH = 0.02, 0.2
+HYDRO_DEPTHS = np.array([0.05, 0.08, 0.11, 0.14, 0.17])
+
+
+@pytest.fixture(scope="module")
+def resting():
+    """A 0.2 m deep, 0.2 x 0.2 m tank at dx 0.02 (1000 particles), DFSPH with extrapolated wall
+    pressures, its default (artificial) viscosity and the solves at 1e-4
+    (tight, so what is measured is the discretisation, not the solver's tolerance), run 1 s; per
+    step of the second half: the mean particle pressure of each layer at HYDRO_DEPTHS over rho0 g d
+    (d below the lattice's free surface, dx/2 above its top row), and the water's mean height."""
+    scheme = rj.DFSPH(tolerance=1e-4, divergence_tolerance=1e-4, max_iterations=400, wall_pressure="extrapolated")
+    sc = scenes.hydrostatic_tank(dx=HYDRO_DX, length=0.2, width=0.2, depth=HYDRO_DEPTH, scheme=scheme)
+    config = sc.config.replace(rebuild_every=1)
+    step = jax.jit(make_step(config))
+
+    @jax.jit
+    def layers(state):
+        P = state.particles
+        fluid = P.kind == rj.Kind.FLUID
+        d = HYDRO_DEPTH - P.x[:, 2]
+        sel = fluid[None, :] & (jnp.abs(d[None, :] - jnp.asarray(HYDRO_DEPTHS)[:, None]) < HYDRO_DX / 2)
+        mean_p = jnp.sum(jnp.where(sel, P.p[None, :], 0.0), axis=1) / jnp.sum(sel, axis=1)
+        height = jnp.sum(jnp.where(fluid, P.x[:, 2], 0.0)) / jnp.sum(fluid)
+        return mean_p / (1000.0 * 9.81 * jnp.asarray(HYDRO_DEPTHS)), height
+
+    state = prime(sc.state, sc.params, config)
+    n = int(round(1.0 / config.dt))
+    ratios, heights = [], []
+    for k in range(n):
+        state = step(state, sc.params)
+        if k >= n // 2:
+            r, z = layers(state)
+            ratios.append(np.asarray(r))
+            heights.append(float(z))
+    assert int(state.status) == 0, rj.Status.describe(int(state.status))
+    return np.array(ratios), np.array(heights)
+
+
+def test_pressure_at_rest_is_hydrostatic(resting):
+    ratios, _ = resting
+    mean = ratios.mean(axis=0)
+    print("time-mean p / rho0 g d at depths", HYDRO_DEPTHS, ":", np.round(mean, 4), " sd", np.round(ratios.std(axis=0), 3))
+    assert np.all(np.abs(mean - 1.0) < 0.015), mean  # measured within 1.0 %; Akinci's wall term: 4-16 % high
+
+
+def test_level_at_rest_does_not_drift(resting):
+    _, heights = resting
+    half = len(heights) // 2
+    drift = abs(heights[half:].mean() - heights[:half].mean())
+    print(f"mean water height {heights.mean():.5f} m, drift between quarters of a second {drift:.2e} m")
+    assert drift < 0.02 * HYDRO_DX

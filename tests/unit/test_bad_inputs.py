@@ -204,6 +204,7 @@ CASES = [
      r"key `sph\.dx`: dx = 2e-05 m is too fine.*GiB"),
     ("dfsph-relaxation-above-1", lambda t: rj.DFSPH(relaxation=1.0), r"DFSPH: relaxation must be in \(0, 1\)"),
     ("dfsph-iterations-zero", lambda t: rj.DFSPH(iterations=0), r"DFSPH: iterations must be None"),
+    ("dfsph-wall-pressure", lambda t: rj.DFSPH(wall_pressure="mirror"), r"DFSPH: wall_pressure must be"),
     ("dfsph-tolerance-negative", lambda t: rj.DFSPH(tolerance=-1e-3), r"DFSPH: tolerance must be a positive"),
     ("dfsph-min-divergence-iterations-zero", lambda t: rj.DFSPH(min_divergence_iterations=0),
      r"DFSPH: need an integer 1 <= min_divergence_iterations"),

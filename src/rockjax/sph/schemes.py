@@ -206,6 +206,12 @@ class DFSPH(FluidScheme):
     divergence solve and a density solve per step (projected Jacobi on the pressure), walls and
     block particles as volumes (Akinci et al. 2012), a viscous term, symplectic Euler.
 
+    ``wall_pressure``: the pressure a wall or block particle carries in the density solve's pair
+    terms: "akinci" (default) none of its own (the peer's form: symmetric solves, but a tank's
+    pressures come out 4-16 % high); "extrapolated" the fluid row's own continued hydrostatically
+    to it, so water at rest carries rho0 g d, but the solve is no longer symmetric and, with water's
+    own viscosity alone (``Laminar()``), keeps water at rest moving (``sph.dfsph`` module docstring).
+
     ``kernel``: the cubic spline by default, at the h / dx of ``Kernel.h_factor`` (1.0: support 2 dx,
     as SPlisHSPlasH's) where a scene builder is given no ``h_factor``; the scene builders' CFL
     default is ``default_cfl`` = 0.4 (the velocity CFL ``0.4 dx / v``, as the peer's scenes), their
@@ -251,7 +257,7 @@ class DFSPH(FluidScheme):
     warm_start: float = 1.0
     relaxation: float = 0.4
     mach: float = 0.1
-    wall_pressure: str = "extrapolated"
+    wall_pressure: str = "akinci"
 
     def __post_init__(self):
         _check_type("DFSPH", "kernel", self.kernel, Kernel)
