@@ -1481,10 +1481,12 @@ def sec_dfsph(doc: Doc):
               "> 0.05 m over rho0 g d (mean and sd over the steps of the last half second) and the mean sweeps "
               "per step (density, divergence). rockjax DFSPH rows without a kernel ran Wendland C2 at h = 1.3 dx and "
               "dt = 0.25 h / (c0 / 10); the later ones the cubic spline at h = dx and dt = 0.4 dx / (c0 / 10). "
-              "`walls`: `DFSPH.wall_pressure` (rows without it: Akinci's); `layers`: the time-mean pressure of the "
+              "`walls`: `DFSPH.wall_pressure` (rows without it: Akinci's); nu `artificial`: the scheme's default "
+              "artificial viscosity instead of the laminar term; `layers`: the time-mean pressure of the "
               "particle layers at 0.05, 0.08, 0.11, 0.14, 0.17 m depth over rho0 g d.")
         times = sorted({t for r in rest for t in r.get("v_rms", {})}, key=float)
-        rows = [[r.get("code"), r.get("scheme"), r.get("wall_pressure"), r.get("kernel"), r.get("h_dx"), r.get("nu"), r.get("dt")]
+        rows = [[r.get("code"), r.get("scheme"), r.get("wall_pressure"), r.get("kernel"), r.get("h_dx"),
+                 "artificial" if r.get("viscosity") == "artificial" else r.get("nu"), r.get("dt")]
                 + [r.get("v_rms", {}).get(t) for t in times]
                 + [r.get("p_ratio_mean_last_half"), r.get("p_ratio_sd_last_half"), r.get("p_ratio_layers"),
                    r.get("sweeps_density_divergence"), r.get("date")] for r in rest if "error" not in r]
