@@ -6,10 +6,9 @@ Densities by summation, ``rho_i / rho0 = sum_j V_j W_ij`` over fluid, wall and b
 velocities leave the density at rho0 (the *density solve*) and carry no compression (the
 *divergence solve*). One step (time t -> t + dt), all on the geometry at t:
 
-1. ``rho_i`` and the DFSPH factor ``1 / S_i``, ``S_i = G_i . (G_i + (gamma - 1) B_i) + sum_j |V_j grad W_ij|^2``
+1. ``rho_i`` and the DFSPH factor ``1 / S_i``, ``S_i = |G_i + (w - 1) B_i|^2 + sum_j |V_j grad W_ij|^2``
    (``G_i = sum_j V_j grad W_ij`` over all neighbours, ``B_i`` its wall and block part, fluid j in
-   the last sum, ``gamma`` = 2 for a solve whose walls carry the extrapolated pressure, else 1), the
-   diagonal of the solves' operator;
+   the last sum, ``w`` the solve's wall weight below), the diagonal of the solves' operator;
 2. divergence solve on ``v(t)``: residual ``dt D_i``, ``D_i = sum_j V_j (v_i - v_j) . grad W_ij`` (the
    rate of the density ratio; rows with fewer than ``min_neighbours`` neighbours are left alone:
    at a free surface a missing neighbour is not compression);
@@ -22,21 +21,20 @@ The pressure acts as ``a_i = -sum_j V_j (kappa_i + kappa_j) grad W_ij`` over flu
 between fluid particles, and the pair term on a block particle is the force the block gets back
 (``advance(..., bodies=)``). The wall particle's ``kappa_b`` (``wall_kappa``):
 
-* density solve, ``DFSPH.wall_pressure = "akinci"`` (default; Akinci et al. 2012, SPlisHSPlasH's):
-  ``kappa_b = 0``, the wall term the adjoint of ``D``'s, so ``D(a(kappa))`` is symmetric and a
-  solve is a projection (it takes energy out). But a wall then pushes with half the pressure of
-  the water it stands for: on the lattice the bottom row of a hydrostatic column is pulled into
-  its floor at 4.3 g, and the time-mean pressures of a tank at rest come out 4-16 % high;
-* ``"extrapolated"``: the row's own pressure continued to the wall particle with the hydrostatic
-  difference, ``max(kappa_i - g . (x_i - x_b), 0)``, as Adami et al. (2012) extrapolate a wall's
-  pressure. A uniform pressure then pushes no row (``G_i = 0`` in a full kernel), a hydrostatic
-  column on the lattice is balanced in every row (``a_z = 1.02 g``, the kernel's discrete
-  gradient moment) and a tank at rest carries rho0 g d within 1 % on time average. The solve is no
-  longer symmetric: with the artificial viscosity it is stable, with water's viscosity alone
-  (``Laminar()``, nu = 1e-6) water at rest keeps moving (rms speed 0.28 m/s after 1 s, 0.14
-  with Akinci's walls);
-* divergence solve: always Akinci's (a velocity projection, no hydrostatic balance to hold; the
-  extrapolated form there left the water at rest moving ~1.5x faster).
+* density solve, ``DFSPH.wall_pressure = "extrapolated"`` (default): the row's own pressure
+  continued to the wall particle with the hydrostatic difference, ``max(kappa_i - g . (x_i - x_b),
+  0)``, as Adami et al. (2012) extrapolate a wall's pressure, and the wall terms of the solve's
+  ``D`` weighted twice (``w = 2``: the adjoint of these pressure terms, a wall standing for mirrored
+  water moving the other way), so ``D(a(kappa))`` stays symmetric and a solve a projection (with
+  ``D`` weighted once the water at rest kept moving: rms 0.28 m/s with water's viscosity). A uniform
+  pressure then pushes no row (``G_i = 0`` in a full kernel), a hydrostatic column on the lattice
+  is balanced in every row (``a_z = 1.02 g``, the kernel's discrete gradient moment), and a tank
+  at rest carries rho0 g d within about 1 % on time average;
+* ``"akinci"`` (Akinci et al. 2012, SPlisHSPlasH's): ``kappa_b = 0``, ``w = 1``, also symmetric;
+  but a wall then pushes with half the pressure of the water it stands for: on the lattice the
+  bottom row of a hydrostatic column is pulled into its floor at 4.3 g, the time-mean pressures of
+  a tank at rest come out 4-16 % high, and that water still moves 1.5-2x faster after 1 s;
+* divergence solve: always Akinci's (a velocity projection, no hydrostatic balance to hold).
 
 Block particles take gravity's difference only (not their own acceleration's).
 
@@ -148,10 +146,10 @@ def geometry(x, kind, vol, nbrs: NeighbourList, params: Params, config: Config, 
     wall_j = pair & ~fluid_j
     total = [jnp.sum(g, axis=1) for g in gw]
     fluid_sq = jnp.sum(jnp.where(fluid_j, sum(g * g for g in gw), 0.0), axis=1)
+    walls = [jnp.sum(jnp.where(wall_j, g, 0.0), axis=1) for g in gw]
     factors = []
-    for gamma in (1.0, 2.0):
-        walls = [jnp.sum(jnp.where(wall_j, g, 0.0), axis=1) for g in gw] if gamma != 1.0 else [0.0] * 3
-        s = sum(t * (t + (gamma - 1.0) * w) for t, w in zip(total, walls)) + fluid_sq
+    for weight in (1.0, 2.0):  # the wall terms' weight in the solve's operator (``divergence``)
+        s = sum((t + (weight - 1.0) * w) ** 2 for t, w in zip(total, walls)) + fluid_sq
         ok = fluid_row & (s > 1e-9 / h**2)
         factors.append(jnp.where(ok, 1.0 / jnp.where(ok, s, 1.0), 0.0))
     rise = jnp.where(wall_j, -sum(params.gravity[a] * pr.d[a] for a in range(3)), 0.0)
@@ -165,14 +163,17 @@ def _gather_rows(values, idx):
     return take(jnp.concatenate([values, jnp.zeros((1,), values.dtype)]), jnp.minimum(idx, nf))
 
 
-def divergence(geo: Geometry, v):
+def divergence(geo: Geometry, v, wall_weight: float = 1.0):
     """``D_i = sum_j V_j (v_i - v_j) . grad_i W_ij`` [1/s] of the fluid rows ([nf]) for velocities
-    ``v`` [N, 3] (wall and block particles at their own velocities)."""
+    ``v`` [N, 3] (wall and block particles at their own velocities), the wall and block terms
+    weighted by ``wall_weight`` (2: the adjoint of the extrapolated wall pressure's terms)."""
     nf = geo.idx.shape[0]
     out = 0.0
+    wall = geo.pair & ~geo.fluid_j
     for a in range(3):
         va = v[:, a]
-        out = out + jnp.sum(geo.gw[a] * (va[:nf, None] - take(va, geo.idx)), axis=1)
+        g = geo.gw[a] if wall_weight == 1.0 else jnp.where(wall, wall_weight * geo.gw[a], geo.gw[a])
+        out = out + jnp.sum(g * (va[:nf, None] - take(va, geo.idx)), axis=1)
     return out
 
 
@@ -344,7 +345,8 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     a_np = _non_pressure_acceleration(pr, P.x, v, rho, P.vol, kind, nbrs, params, config)
     v_visc = v
     v = v.at[:nf].add(dt * a_np)
-    sd = _solve(geo, v, scheme.warm_start * solver[:nf, 0], lambda v: geo.rho + dt * divergence(geo, v) - 1.0,
+    weight = 2.0 if scheme.wall_pressure == "extrapolated" else 1.0
+    sd = _solve(geo, v, scheme.warm_start * solver[:nf, 0], lambda v: geo.rho + dt * divergence(geo, v, weight) - 1.0,
                 fluid_row, tolerance=scheme.tolerance, min_iterations=scheme.min_iterations, model=scheme.wall_pressure,
                 **loop)
     v = jnp.where(fluid[:, None], sd.v, P.v)

@@ -207,10 +207,9 @@ class DFSPH(FluidScheme):
     block particles as volumes (Akinci et al. 2012), a viscous term, symplectic Euler.
 
     ``wall_pressure``: the pressure a wall or block particle carries in the density solve's pair
-    terms: "akinci" (default) none of its own (the peer's form: symmetric solves, but a tank's
-    pressures come out 4-16 % high); "extrapolated" the fluid row's own continued hydrostatically
-    to it, so water at rest carries rho0 g d, but the solve is no longer symmetric and, with water's
-    own viscosity alone (``Laminar()``), keeps water at rest moving (``sph.dfsph`` module docstring).
+    terms: "extrapolated" (default) the fluid row's own continued hydrostatically to it, so water at
+    rest carries rho0 g d; "akinci" none of its own (the peer's form: a tank's pressures come out
+    4-16 % high; ``sph.dfsph`` module docstring).
 
     ``kernel``: the cubic spline by default, at the h / dx of ``Kernel.h_factor`` (1.0: support 2 dx,
     as SPlisHSPlasH's) where a scene builder is given no ``h_factor``; the scene builders' CFL
@@ -257,7 +256,7 @@ class DFSPH(FluidScheme):
     warm_start: float = 1.0
     relaxation: float = 0.4
     mach: float = 0.1
-    wall_pressure: str = "akinci"
+    wall_pressure: str = "extrapolated"
 
     def __post_init__(self):
         _check_type("DFSPH", "kernel", self.kernel, Kernel)
