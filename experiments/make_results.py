@@ -1504,8 +1504,10 @@ def sec_wedge_dfsph(doc: Doc):
           "and DFSPH (cubic spline, h = dx, `block_substeps` block steps per fluid step, the rock contact as stiff as "
           "WCSPH's); wall time of a compiled run on 2 cores; gauges on the flat, smooth run-up on the far beach. "
           "Issue 49 asks for run-up and gauge maxima within 5 % of WCSPH's at the finest resolution both run, or the "
-          "difference explained.")
-    rows = [[r.get("date"), r.get("dx"), r.get("scheme"), r.get("cfl"), r.get("n_fluid"), r.get("block_substeps"), r.get("steps"),
+          "difference explained. DFSPH rows marked `extrapolated` ran `DFSPH.wall_pressure = \"extrapolated\"` (the "
+          "default since); the others Akinci's walls.")
+    rows = [[r.get("date"), r.get("dx"), r.get("scheme") + (f" ({r['wall_pressure']})" if r.get("wall_pressure") else ""),
+             r.get("cfl"), r.get("n_fluid"), r.get("block_substeps"), r.get("steps"),
              r.get("wall_s"), r.get("impact_speed"), ", ".join(fmt(v) for v in r.get("max_gauge") or []),
              r.get("max_smooth_runup"), r.get("t_max_smooth_runup"), (r.get("final_wedge_x") or [None])[0],
              r.get("error")]

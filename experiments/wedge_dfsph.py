@@ -44,6 +44,7 @@ def run(dx: float, t_end: float, scheme: str, substeps: int | None, flat_length:
                             bottom_offset=2.0 * scene.meta["block_height"] / 3.0)
     c = scene.config
     return {"bench": "wedge_dfsph", "scheme": scheme, "kernel": c.scheme.kernel.name,
+            **({"wall_pressure": c.scheme.wall_pressure} if scheme == "dfsph" else {}),
             "h_dx": round(float(scene.params.fluid.h) / dx, 3), "block_substeps": c.block_substeps, "dx": dx,
             "n_fluid": c.n_fluid, "n_wall": c.n_wall, "cfl": c.cfl, "dt": c.dt, "block_dt": c.block_dt,
             "rock_stiffness": float(scene.params.blocks.normal_stiffness),
