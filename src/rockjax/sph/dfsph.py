@@ -112,7 +112,9 @@ class Geometry(NamedTuple):
 
     ``idx``: the list; ``gw``: three arrays ``V_j grad_i W_ij`` [1/m]; ``fluid_j``: the pair is
     real and j is fluid; ``pair``: the pair is real; ``rho``: [nf] density ratio ``rho / rho0``;
-    ``factor``: [nf] ``1 / S_i`` [m^2] (0 where the sums vanish); ``count``: [nf] neighbours.
+    ``factor``: [nf] ``1 / S_i`` [m^2] (0 where the sums vanish) for wall weight 1, ``wall_factor``
+    for wall weight 2 (``_WALL_WEIGHT``); ``count``: [nf] neighbours; ``rise``: [nf, K] ``_rise`` on
+    the wall and block pairs (0 elsewhere); ``width``: ``soft_width`` [m^2/s^2].
     """
 
     idx: jax.Array
@@ -152,7 +154,7 @@ def geometry(x, kind, vol, nbrs: NeighbourList, params: Params, config: Config, 
         s = sum((t + (weight - 1.0) * w) ** 2 for t, w in zip(total, walls)) + fluid_sq
         ok = fluid_row & (s > 1e-9 / h**2)
         factors.append(jnp.where(ok, 1.0 / jnp.where(ok, s, 1.0), 0.0))
-    rise = jnp.where(wall_j, -sum(params.gravity[a] * pr.d[a] for a in range(3)), 0.0)
+    rise = jnp.where(wall_j, _rise(params, pr.d), 0.0)
     return Geometry(idx=pr.idx, gw=gw, fluid_j=fluid_j, pair=pair, rho=rho, factor=factors[0], count=jnp.sum(pair, axis=1),
                     wall_factor=factors[1], rise=rise, width=soft_width(params))
 
@@ -169,12 +171,23 @@ def divergence(geo: Geometry, v, wall_weight: float = 1.0):
     weighted by ``wall_weight`` (2: the adjoint of the extrapolated wall pressure's terms)."""
     nf = geo.idx.shape[0]
     out = 0.0
-    wall = geo.pair & ~geo.fluid_j
+    wall = None if wall_weight == 1.0 else geo.pair & ~geo.fluid_j
     for a in range(3):
         va = v[:, a]
-        g = geo.gw[a] if wall_weight == 1.0 else jnp.where(wall, wall_weight * geo.gw[a], geo.gw[a])
+        g = geo.gw[a] if wall is None else jnp.where(wall, wall_weight * geo.gw[a], geo.gw[a])
         out = out + jnp.sum(g * (va[:nf, None] - take(va, geo.idx)), axis=1)
     return out
+
+
+#: The weight of the wall and block terms in a density solve's ``D`` per wall model: the adjoint
+#: of the model's wall pressure terms, so ``D(a(kappa))`` is symmetric (module docstring).
+_WALL_WEIGHT = {"akinci": 1.0, "extrapolated": 2.0}
+
+
+def _rise(params: Params, d):
+    """``-g . (x_i - x_b)`` [m^2/s^2] for pair separations ``d`` (three arrays ``x_i - x_b``): the
+    hydrostatic pressure over density gained from the row to the wall particle."""
+    return -sum(params.gravity[a] * d[a] for a in range(3))
 
 
 def wall_kappa(kappa_rows, rise, model: str, width):
@@ -228,7 +241,7 @@ def _solve(geo: Geometry, v, kappa0, residual, fluid_row, *, tolerance: float, m
     nf = geo.idx.shape[0]
     counted = halo.owned(fluid_row)  # the rows whose residuals this device adds to the mean
     n_fluid = jnp.maximum(halo.total(jnp.sum(counted)), 1)
-    step_size = relaxation * (geo.factor if model == "akinci" else geo.wall_factor) / dt**2
+    step_size = relaxation * (geo.factor if _WALL_WEIGHT[model] == 1.0 else geo.wall_factor) / dt**2
     v_base = v
 
     def velocity(kappa):  # the velocities after the pressure kappa (not additive: wall_kappa clamps)
@@ -345,7 +358,7 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     a_np = _non_pressure_acceleration(pr, P.x, v, rho, P.vol, kind, nbrs, params, config)
     v_visc = v
     v = v.at[:nf].add(dt * a_np)
-    weight = 2.0 if scheme.wall_pressure == "extrapolated" else 1.0
+    weight = _WALL_WEIGHT[scheme.wall_pressure]
     sd = _solve(geo, v, scheme.warm_start * solver[:nf, 0], lambda v: geo.rho + dt * divergence(geo, v, weight) - 1.0,
                 fluid_row, tolerance=scheme.tolerance, min_iterations=scheme.min_iterations, model=scheme.wall_pressure,
                 **loop)
@@ -364,12 +377,11 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     return P_new, _body_pair_forces(P, sd.kappa, sv.kappa, v_visc, rho, nbrs, bodies, params, config)
 
 
-
-
 def _body_pair_forces(P, kappa_density, kappa_divergence, v, rho, nbrs, bodies, params: Params, config: Config):
     """Per (fluid row, block particle) pair of the list: the force on the fluid particle from the
-    block particle over the step: pressure ``-m_i V_b kappa_i grad W_ib`` (what the solves applied,
-    ``pressure_acceleration``) plus the viscous pair term (``wcsph.wall_pair_forces`` with zero
+    block particle over the step: pressure ``-m_i V_b (kappa_i + kappa_b) grad W_ib`` of each solve's
+    pressure with its wall model (what the solves applied, ``pressure_acceleration``,
+    ``wall_kappa``) plus the viscous pair term (``wcsph.wall_pair_forces`` with zero
     pressure), with ``v`` the velocities the viscous term saw."""
     from . import wcsph
     from .walls import wall_pair_geometry
@@ -381,7 +393,7 @@ def _body_pair_forces(P, kappa_density, kappa_divergence, v, rho, nbrs, bodies, 
     F = jnp.where(on, config.scheme.kernel.f(bp.r, f.h), 0.0)
     vol = _volumes(P.vol, f.h, config.scheme.kernel)
     model = config.scheme.wall_pressure
-    rise = -sum(params.gravity[a] * bp.d[a] for a in range(3))
+    rise = _rise(params, bp.d)
     row = jnp.minimum(bp.row, kappa_density.shape[0] - 1)
     kappa = 0.0
     for k, m in ((kappa_density, model), (kappa_divergence, "akinci")):
