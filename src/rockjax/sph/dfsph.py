@@ -51,11 +51,25 @@ at ``max_iterations``; each starts from ``warm_start`` times the previous step's
 (``Particles.solver``).
 
 Loops: ``DFSPH(iterations=None)`` runs each solve as a ``lax.while_loop`` until converged (the
-forward default: a run pays for the sweeps it needs); reverse-mode AD cannot go through it.
-``DFSPH(iterations=n)`` runs exactly n sweeps per solve in a ``lax.fori_loop`` (a fixed trip count:
-differentiable, each step costs n sweeps). Every sweep runs, also after the tolerance is met: a
-finish masked on the residual switches the sweep count with the parameters, and the result jumps
-(measured: the secants of a dam break's energy in h at 1e-3 and 1e-4 disagreed 2x).
+forward default: a run pays for the sweeps it needs). ``DFSPH(iterations=n)`` runs exactly n sweeps
+per solve in a ``lax.fori_loop`` (a fixed trip count, each step costs n sweeps). Every sweep runs,
+also after the tolerance is met: a finish masked on the residual switches the sweep count with the
+parameters, and the result jumps (measured: the secants of a dam break's energy in h at 1e-3 and
+1e-4 disagreed 2x).
+
+Gradients (``DFSPH.gradient``):
+
+* ``"unrolled"`` (default): reverse mode through the n fixed sweeps (``iterations=n`` required; a
+  ``while_loop`` has no reverse mode). The exact derivative of what the forward computed, solved
+  or not; memory grows with n.
+* ``"implicit"``: at a solve's result the rows A it drives with a positive pressure satisfy
+  ``r_A(kappa, theta) = 0`` (``theta``: the step's geometry and velocities), so by the implicit
+  function theorem the cotangents need one adjoint solve ``J_AA^T mu = kbar_A`` (``J = dr/dkappa``),
+  run as ``adjoint_iterations`` Jacobi sweeps with the forward's step (``_implicit_bwd``), whatever
+  the forward's loop (fixed or ``while_loop``); memory does not grow with the sweeps. It is the
+  derivative of the *converged* solve: at the default tolerance (1e-3) it is off by as much as the
+  forward is from convergence (RESULTS.md, "DFSPH gradients": 3-33 % on the tests' dam break), so
+  use it with a tight tolerance (1e-8: within 1e-4 of the secants).
 
 The time step carries no gradient: ``Config.dt`` is static, chosen on the host from the velocity
 CFL (``DFSPH.stable_dt``); a step whose fastest particle moves more than ``0.5 h`` sets
@@ -67,6 +81,7 @@ Water at rest against the peer's, and the speed of a step against SPlisHSPlasH's
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import jax
@@ -233,36 +248,61 @@ class _Solve(NamedTuple):
     iterations: jax.Array  # [] int32
 
 
-def _solve(geo: Geometry, v, kappa0, residual, fluid_row, *, tolerance: float, min_iterations: int,
-           max_iterations: int, fixed: int | None, relaxation: float, dt, model: str = "akinci") -> _Solve:
-    """Projected Jacobi (module docstring) from the warm start ``kappa0`` [nf] (applied first) for the
-    signed ``residual(v)`` [nf]; ``fixed``: the sweeps of the differentiable form (None: while_loop);
-    ``model``: the wall pressure (``wall_kappa``)."""
+class _Options(NamedTuple):
+    """A solve's static settings (``_solve``); ``residual(geo, v)`` [nf] is a pure function of its
+    arguments (no traced value closed over), as the implicit reverse mode re-evaluates it."""
+
+    residual: object
+    tolerance: float
+    min_iterations: int
+    max_iterations: int
+    fixed: int | None
+    relaxation: float
+    dt: float
+    model: str
+    adjoint_iterations: int
+
+
+def _velocity(geo: Geometry, v_base, kappa, fluid_row, dt, model: str):
+    """The velocities [N, 3] after the pressure ``kappa`` [nf] acts for ``dt`` on ``v_base``
+    (not additive in ``kappa``: ``wall_kappa`` clamps)."""
+    nf = geo.idx.shape[0]
+    a = pressure_acceleration(geo, kappa, model)
+    return halo.sync(v_base.at[:nf].add(jnp.where(fluid_row[:, None], dt * a, 0.0)))
+
+
+def _step_size(geo: Geometry, o: _Options):
+    """The Jacobi step [nf] ``relaxation / (dt^2 S_i)`` of the solve's operator (``Geometry``)."""
+    return o.relaxation * (geo.factor if _WALL_WEIGHT[o.model] == 1.0 else geo.wall_factor) / o.dt**2
+
+
+def _iterate(o: _Options, geo: Geometry, v, kappa0, fluid_row, solved) -> _Solve:
+    """Projected Jacobi (module docstring) from the warm start ``kappa0`` [nf] (applied first);
+    ``o.fixed``: the sweeps of the differentiable form (None: while_loop). ``solved`` [nf]: the rows
+    whose residual the solve drives (unused here: a row outside it has a zero residual)."""
+    del solved
     nf = geo.idx.shape[0]
     counted = halo.owned(fluid_row)  # the rows whose residuals this device adds to the mean
     n_fluid = jnp.maximum(halo.total(jnp.sum(counted)), 1)
-    step_size = relaxation * (geo.factor if _WALL_WEIGHT[model] == 1.0 else geo.wall_factor) / dt**2
+    step_size = _step_size(geo, o)
+
     v_base = v
 
-    def velocity(kappa):  # the velocities after the pressure kappa (not additive: wall_kappa clamps)
-        a = pressure_acceleration(geo, kappa, model)
-        return halo.sync(v_base.at[:nf].add(jnp.where(fluid_row[:, None], dt * a, 0.0)))
-
     def sweep(v, kappa):
-        r = jnp.where(fluid_row, residual(v), 0.0)
+        r = jnp.where(fluid_row, o.residual(geo, v), 0.0)
         new = halo.sync(jnp.where(fluid_row, jnp.maximum(kappa + step_size * r, 0.0), 0.0))
         e = jnp.where((new > 0) | (r > 0), jnp.abs(r), 0.0)
         mine = e if counted is fluid_row else jnp.where(counted, e, 0.0)  # (e is 0 off the fluid rows)
         err = halo.total(jnp.sum(mine)) / n_fluid
-        return velocity(new), new, err, e
+        return _velocity(geo, v_base, new, fluid_row, o.dt, o.model), new, err, e
 
-    v = velocity(kappa0)
+    v = _velocity(geo, v_base, kappa0, fluid_row, o.dt, o.model)
     inf = jnp.asarray(jnp.inf, v.dtype)
     init = (jnp.zeros((), jnp.int32), v, kappa0, inf, jnp.zeros((nf,), v.dtype))
-    if fixed is None:
+    if o.fixed is None:
         def cond(c):
             it, _, _, err, _ = c
-            return (it < min_iterations) | ((err > tolerance) & (it < max_iterations))
+            return (it < o.min_iterations) | ((err > o.tolerance) & (it < o.max_iterations))
 
         def body(c):
             it, v, kappa, _, _ = c
@@ -275,7 +315,87 @@ def _solve(geo: Geometry, v, kappa0, residual, fluid_row, *, tolerance: float, m
         it, v, kappa, _, _ = c
         return (it + 1,) + sweep(v, kappa)
 
-    return _finish(jax.lax.fori_loop(0, fixed, body, init))
+    return _finish(jax.lax.fori_loop(0, o.fixed, body, init))
+
+
+@functools.partial(jax.custom_vjp, nondiff_argnums=(0,))
+def _implicit(o: _Options, geo: Geometry, v, kappa0, fluid_row, solved) -> _Solve:
+    """``_iterate`` whose reverse mode is the implicit function theorem at its result (module
+    docstring, "Gradients")."""
+    return _iterate(o, geo, v, kappa0, fluid_row, solved)
+
+
+def _implicit_fwd(o, geo, v, kappa0, fluid_row, solved):
+    out = _iterate(o, geo, v, kappa0, fluid_row, solved)
+    return out, (geo, v, kappa0, out.kappa, fluid_row, solved)
+
+
+def _implicit_bwd(o: _Options, res, ct: _Solve):
+    """Cotangents of ``(geo, v, kappa0)`` from those of the solve's ``v`` and ``kappa`` (its error
+    diagnostics carry none). On the rows the solve drives with a positive pressure (the active set
+    A) the result satisfies ``r_A(kappa, theta) = 0``, ``theta = (geo, v)``; the adjoint
+    ``mu`` solves ``J_AA^T mu = kbar_A`` (``J = dr / dkappa``, ``kbar`` the pressure's cotangent plus
+    what the velocity sends back to it) by ``adjoint_iterations`` Jacobi sweeps of the forward's
+    step (``J^T`` has the spectrum of ``J``), and ``theta`` gets ``vbar dV/dtheta - mu dr/dtheta``.
+    Rows outside A keep their pressure at 0 (clamped) or, where the solve drives no residual, at
+    the warm start, which then gets their cotangent (theirs and, as a parameter of the rows in A,
+    ``-mu dr/dkappa``)."""
+    geo, v_base, kappa0, kappa, fluid_row, solved = res
+
+    def velocity(k, g, vb):
+        return _velocity(g, vb, k, fluid_row, o.dt, o.model)
+
+    def residual(k, g, vb):
+        return jnp.where(solved, o.residual(g, velocity(k, g, vb)), 0.0)
+
+    _, pull_v = jax.vjp(velocity, kappa, geo, v_base)
+    k_v, g_v, vb_v = pull_v(ct.v)
+    kbar = ct.kappa + k_v
+    active = solved & (kappa > 0)
+    b = jnp.where(active, kbar, 0.0)
+    _, pull_r = jax.vjp(residual, kappa, geo, v_base)
+    step = jnp.where(active, _step_size(geo, o), 0.0)
+
+    def sweep(_, mu):
+        return halo.sync(mu + step * (pull_r(mu)[0] - b))
+
+    mu = jax.lax.fori_loop(0, o.adjoint_iterations, sweep, -step * b)
+    k_r, g_r, vb_r = pull_r(mu)
+    g_bar = jax.tree_util.tree_map(lambda p, q: p if p.dtype == jax.dtypes.float0 else p - q, g_v, g_r)
+    # rows that keep the warm start's pressure: a parameter of the others' equations as well
+    warm = fluid_row & ~solved & (kappa0 > 0)
+    return g_bar, vb_v - vb_r, jnp.where(warm, kbar - k_r, 0.0), None, None
+
+
+_implicit.defvjp(_implicit_fwd, _implicit_bwd)
+
+
+@functools.partial(jax.custom_vjp, nondiff_argnums=(0,))
+def _forward_only(o: _Options, geo: Geometry, v, kappa0, fluid_row, solved) -> _Solve:
+    """``_iterate`` in its ``while_loop`` form, whose reverse mode is a clear error."""
+    return _iterate(o, geo, v, kappa0, fluid_row, solved)
+
+
+def _forward_only_fwd(o, geo, v, kappa0, fluid_row, solved):
+    return _iterate(o, geo, v, kappa0, fluid_row, solved), None
+
+
+def _forward_only_bwd(o, res, ct):
+    raise ValueError("DFSPH: reverse-mode AD through a solve run to its tolerance (iterations=None) with "
+                     "gradient='unrolled'; set DFSPH(iterations=n) (a fixed sweep count) or DFSPH(gradient='implicit')")
+
+
+_forward_only.defvjp(_forward_only_fwd, _forward_only_bwd)
+
+
+def _solve(geo: Geometry, v, kappa0, residual, fluid_row, solved, *, implicit: bool, **options) -> _Solve:
+    """One solve (``_iterate``) for the signed ``residual(geo, v)`` [nf] on the rows ``solved``;
+    ``implicit``: reverse mode by the implicit function theorem (``_implicit``) instead of through
+    the sweeps."""
+    o = _Options(residual=residual, **options)
+    if implicit:
+        return _implicit(o, geo, v, kappa0, fluid_row, solved)
+    return (_forward_only if o.fixed is None else _iterate)(o, geo, v, kappa0, fluid_row, solved)
 
 
 def _finish(carry) -> _Solve:
@@ -293,6 +413,18 @@ def _non_pressure_acceleration(x, v, rho, vol, kind, nbrs, params: Params, confi
     sums = pair_sum(wcsph._momentum_pair, x, *wcsph._momentum_values(v, rho, jnp.zeros_like(rho), vol, extra), params,
                     nbrs, kind, config)
     return wcsph._momentum_finish(sums, kind[: config.n_fluid] == Kind.FLUID, params, False)
+
+
+def _divergence_residual(geo: Geometry, v, *, dt: float, min_neighbours: int):
+    """The divergence solve's residual [nf]: ``dt D_i(v)``, zero on rows with fewer than
+    ``min_neighbours`` neighbours (a free surface's missing neighbours are not compression)."""
+    return jnp.where(geo.count < min_neighbours, 0.0, dt * divergence(geo, v))
+
+
+def _density_residual(geo: Geometry, v, *, dt: float, weight: float):
+    """The density solve's residual [nf]: ``rho_i / rho0 + dt D_i(v) - 1``, the wall terms of ``D``
+    weighted by ``weight`` (``_WALL_WEIGHT``)."""
+    return geo.rho + dt * divergence(geo, v, weight) - 1.0
 
 
 def _solver_array(P: Particles, config: Config):
@@ -329,27 +461,26 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     solver = _solver_array(P, config)
     geo = geometry(P.x, kind, P.vol, nbrs, params, config)
     rho = _densities(P, geo, params, nf)
-    loop = dict(max_iterations=scheme.max_iterations, fixed=scheme.iterations, relaxation=scheme.relaxation, dt=dt)
+    loop = dict(max_iterations=scheme.max_iterations, fixed=scheme.iterations, relaxation=scheme.relaxation, dt=dt,
+                adjoint_iterations=scheme.adjoint_iterations, implicit=scheme.gradient == "implicit")
 
     v0 = P.v
     v = v0
     zeros = jnp.zeros((nf,), v.dtype)
     sv = _Solve(v=v, kappa=zeros, error=jnp.zeros((), v.dtype), row_error=zeros, iterations=jnp.zeros((), jnp.int32))
     if scheme.divergence_solve:
-        few = geo.count < scheme.min_neighbours
-        sv = _solve(geo, v, scheme.warm_start * solver[:nf, 1],
-                    lambda v: jnp.where(few, 0.0, dt * divergence(geo, v)), fluid_row,
-                    tolerance=scheme.divergence_tolerance, min_iterations=scheme.min_divergence_iterations,
-                    **loop)
+        sv = _solve(geo, v, scheme.warm_start * solver[:nf, 1], functools.partial(_divergence_residual, dt=dt,
+                    min_neighbours=scheme.min_neighbours), fluid_row,
+                    fluid_row & (geo.count >= scheme.min_neighbours), tolerance=scheme.divergence_tolerance,
+                    min_iterations=scheme.min_divergence_iterations, model="akinci", **loop)
         v = sv.v
 
     a_np = _non_pressure_acceleration(P.x, v, rho, P.vol, kind, nbrs, params, config)
     v_visc = v
     v = v.at[:nf].add(dt * a_np)
-    weight = _WALL_WEIGHT[scheme.wall_pressure]
-    sd = _solve(geo, v, scheme.warm_start * solver[:nf, 0], lambda v: geo.rho + dt * divergence(geo, v, weight) - 1.0,
-                fluid_row, tolerance=scheme.tolerance, min_iterations=scheme.min_iterations, model=scheme.wall_pressure,
-                **loop)
+    sd = _solve(geo, v, scheme.warm_start * solver[:nf, 0], functools.partial(
+                _density_residual, dt=dt, weight=_WALL_WEIGHT[scheme.wall_pressure]), fluid_row, fluid_row,
+                tolerance=scheme.tolerance, min_iterations=scheme.min_iterations, model=scheme.wall_pressure, **loop)
     v = jnp.where(fluid[:, None], sd.v, P.v)
     x_new = wrap_positions(jnp.where(fluid[:, None], P.x + dt * v, P.x), config.grid)
     kappa = sd.kappa + sv.kappa

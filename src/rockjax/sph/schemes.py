@@ -227,8 +227,11 @@ class DFSPH(FluidScheme):
     ``max_iterations``: the sweeps of each solve (a solve still above its tolerance at the cap sets
     ``Status.SOLVER_NOT_CONVERGED``), the divergence solve's least ``min_divergence_iterations``
     (1, as SPlisHSPlasH's; the density solve's 2 as its); ``iterations``: None runs each solve until it converges (a
-    ``while_loop``: forward only), an int runs exactly that many sweeps, all of them
-    (differentiable); ``divergence_solve``: run the divergence solve; ``min_neighbours``: rows
+    ``while_loop``), an int runs exactly that many sweeps, all of them; ``gradient``: the reverse
+    mode of a solve, "unrolled" (through the fixed sweeps: needs ``iterations``) or "implicit" (the
+    implicit function theorem at the solve's result, the adjoint solved by ``adjoint_iterations``
+    Jacobi sweeps: any ``iterations``, exact for a converged solve; ``sph.dfsph`` "Gradients");
+    ``divergence_solve``: run the divergence solve; ``min_neighbours``: rows
     with fewer neighbours get no divergence correction (free surface); ``warm_start``: the share of
     the previous step's pressures each solve starts from; ``relaxation``: the Jacobi step, below
     2 / lambda_max of the solves' operator (0.4: lambda_max 4.2 for Wendland C2 at h = 1.3 dx);
@@ -257,9 +260,16 @@ class DFSPH(FluidScheme):
     relaxation: float = 0.4
     mach: float = 0.1
     wall_pressure: str = "extrapolated"
+    gradient: str = "unrolled"
+    adjoint_iterations: int = 100
 
     def __post_init__(self):
         _check_type("DFSPH", "kernel", self.kernel, Kernel)
+        if self.gradient not in ("unrolled", "implicit"):
+            raise ValueError(f"DFSPH: gradient must be 'unrolled' (reverse mode through the sweeps) or 'implicit' "
+                             f"(the implicit function theorem at the solve's result); got {self.gradient!r}")
+        if not (isinstance(self.adjoint_iterations, int) and self.adjoint_iterations >= 1):
+            raise ValueError(f"DFSPH: adjoint_iterations must be an int >= 1 (got {self.adjoint_iterations!r})")
         if self.wall_pressure not in ("extrapolated", "akinci"):
             raise ValueError(f"DFSPH: wall_pressure must be 'extrapolated' or 'akinci' (got "
                              f"{self.wall_pressure!r})")
