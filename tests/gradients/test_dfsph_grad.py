@@ -10,6 +10,12 @@ a kink the secants see at 1e-3), 8 sweeps per solve, 16 steps of 0.0128 s (0.20 
 Checked: the central secants at relative steps 1e-3 and 1e-4 agree with each other and with AD
 within 2 % (``gradcheck`` verdict "ok"); the implicit gradient also within 1e-4 of the secants
 that agree (it is the derivative of the converged solve, which the tight tolerance reaches).
+
+Slow: the coupled wedge of ``test_coupled_grad`` (``gradcases.tiny_wedge``'s geometry, 408 water
+particles, boundary-particle coupling) with ``DFSPH(iterations=8)``, laminar viscosity, the list
+rebuilt every step, 20 steps of 9.3 ms (0.19 s, 13 block steps per fluid step): the wedge's
+down-slope position plus 10x the gauge elevation 0.15 m beyond the shoreline at the end, w.r.t.
+the wedge density and the slope's friction angle.
 """
 
 from __future__ import annotations
@@ -19,7 +25,7 @@ import pytest
 
 import gradcases as gc
 import rockjax as rj
-from rockjax.calibrate import observed
+from rockjax.calibrate import observed, trajectory_loss
 from rockjax.gradcheck import gradcheck
 from rockjax.observables import energies
 
@@ -71,3 +77,25 @@ def test_reverse_mode_through_a_while_loop_solve_names_the_fix(x64):
 
     with pytest.raises(ValueError, match=r"iterations=n.*gradient='implicit'"):
         jax.grad(loss)(scene.params)
+
+
+@pytest.mark.slow
+def test_dfsph_coupled_wedge_gradients_match_secants(x64):
+    import jax.numpy as jnp
+
+    scene = rj.scenes.sliding_wedge(dx=0.05, slope_angle_deg=gc.WEDGE_SLOPE_DEG, block_length=0.2, block_width=0.2,
+                                    water_depth=0.2, flat_length=0.4, flume_width=0.4, start_distance=0.0,
+                                    coupling=rj.Coupling.BOUNDARY_PARTICLES,
+                                    scheme=rj.DFSPH(iterations=8, viscosity=rj.sph.Laminar()))
+    config = scene.config.replace(rebuild_every=1)  # DFSPH's particles move ~0.4 dx a step
+    n_steps = 20
+    loss = trajectory_loss(config, n_steps, gc.wedge_observe(scene))
+    zero = jnp.zeros((n_steps, 3))
+    w = zero.at[-1, 0].set(1.0).at[-1, 1].set(10.0)
+    _, (obs, status) = jax.jit(lambda p: loss(p, scene.state, zero, w, zero))(scene.params)
+    assert int(status) == 0, rj.Status.describe(int(status))
+    assert float(obs[-1, 0] - obs[0, 0]) > 0.05  # the wedge slid into the water
+    report = gradcheck(lambda p: loss(p, scene.state, zero, w, zero)[0], scene.params,
+                       ["blocks.density[0]", "blocks.friction_angle"], steps=(1e-3, 1e-4, 1e-5))
+    print(report)
+    assert report.ok, str(report)
