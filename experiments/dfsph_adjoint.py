@@ -21,6 +21,7 @@ sweeps per step of the last step's solves, value-and-grad time over forward time
 from __future__ import annotations
 
 import argparse
+import datetime
 import os
 import statistics
 import sys
@@ -90,7 +91,7 @@ def run_case(name: str, settings: dict, *, dx: float, steps: int, repeats: int) 
         conv = c.converged_fd
         leaves[c.path] = {"ad": c.ad, "fd": dict(zip([f"{r:.0e}" for r in c.steps], c.fd)), "verdict": c.verdict,
                           "ad_vs_fd": None if conv is None else abs(c.ad - conv) / max(abs(conv), 1e-300)}
-    return {"experiment": "dfsph_adjoint", "case": name, "settings": {k: v for k, v in settings.items()},
+    return {"experiment": "dfsph_adjoint", "date": datetime.date.today().isoformat(), "case": name, "settings": {k: v for k, v in settings.items()},
             "dx": dx, "n_fluid": config.n_fluid, "steps": steps, "dt": config.dt, "dtype": "float64",
             "loss": float(report.loss), "leaves": leaves,
             "last_step_sweeps": {"density": float(sweeps[0]), "divergence": float(sweeps[1])},

@@ -1472,6 +1472,29 @@ def sec_dfsph(doc: Doc):
                  round(r["grad_plain_temp_bytes"] / 1e6, 1)] for r in grad if r.get("bench") == "grad"]
         doc.p(table(["date", "steps", "sweeps", "grad / forward", "forward MB", "checkpointed grad MB",
                      "plain grad MB"], rows))
+    adj = doc.records("dfsph_adjoint.jsonl", "python experiments/dfsph_adjoint.py [--dx 0.05 --cases ...] "
+                      "--out experiments/results/dfsph_adjoint.jsonl")
+    if adj is not None:
+        doc.p("DFSPH's two reverse modes (`dfsph_adjoint.py`: the gradient tests' dam break, 0.3 x 0.3 x 0.5 m, dx "
+              "0.1 m (45 water) or 0.05 m (360), laminar viscosity, float64, 16 steps; loss the kinetic energy at the "
+              "end). `unrolled_n`: reverse mode through n fixed sweeps per solve; `implicit_*`: the implicit "
+              "function theorem at each solve's result (`adjoint_iterations` 100 unless named), the forward fixed "
+              "(`fixed_n`) or run to a tolerance in a while loop (`tol_*`). `AD vs FD`: AD's relative distance from "
+              "the converged central secant (`gradcheck`, relative steps 1e-3 ... 1e-6), leaves h and g_z; sweeps: "
+              "the last step's (density, divergence); grad / forward: value-and-grad over the forward's wall time; "
+              "MB: XLA's temporary bytes of the compiled programs.")
+        rows = []
+        for r in adj:
+            lv = r.get("leaves", {})
+            err = [lv.get(k, {}).get("ad_vs_fd") for k in ("fluid.h", "gravity[2]")]
+            rows.append([r.get("date"), r.get("n_fluid"), r.get("case"), fmt(r.get("loss"), 7)]
+                        + [f"{lv.get(k, {}).get('verdict')} {fmt(e, 2) if e is not None else '-'}"
+                           for k, e in zip(("fluid.h", "gravity[2]"), err)]
+                        + [f"{r['last_step_sweeps']['density']:.0f} / {r['last_step_sweeps']['divergence']:.0f}",
+                           r.get("forward_s"), r.get("grad_over_forward"), round(r["temp_bytes_forward"] / 1e6, 2),
+                           round(r["temp_bytes_grad"] / 1e6, 2)])
+        doc.p(table(["date", "water", "case", "loss J", "h: verdict, AD vs FD", "g_z: verdict, AD vs FD", "sweeps",
+                     "forward s", "grad / forward", "forward MB", "grad MB"], rows))
     rest = doc.records("dfsph_rest.jsonl", "python experiments/dfsph_rest.py --peer-python PEER_VENV/bin/python "
                        "--out experiments/results/dfsph_rest.jsonl")
     if rest is not None:
