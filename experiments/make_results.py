@@ -1472,6 +1472,21 @@ def sec_dfsph(doc: Doc):
                  round(r["grad_plain_temp_bytes"] / 1e6, 1)] for r in grad if r.get("bench") == "grad"]
         doc.p(table(["date", "steps", "sweeps", "grad / forward", "forward MB", "checkpointed grad MB",
                      "plain grad MB"], rows))
+    prof = doc.records("dfsph_profile.jsonl", "python experiments/dfsph_profile.py --sizes 5k 20k 80k "
+                       "--out experiments/results/dfsph_profile.jsonl")
+    if prof is not None:
+        doc.p("Where a DFSPH step's time goes (`dfsph_profile.py`: the same dam break from the collapse under way, "
+              "`DFSPH()` defaults; one compiled chunk per variant, timed in turns; ms per step, median (min)): "
+              "`scheduled` the driver's schedule (the list rebuilt every step here), `no rebuild` the chunk's first "
+              "list kept, `no divergence` also without the divergence solve. The differences are the rebuild's and "
+              "the divergence solve's cost inside the chunk; functions compiled alone mislead (XLA fuses across "
+              "them in the scan).")
+        rows = [[r.get("date"), r["size"], r.get("n_fluid"), r.get("n_wall"), r.get("K")]
+                + [f"{r['ms_per_step'][k]['median']} ({r['ms_per_step'][k]['min']})"
+                   for k in ("scheduled", "no_rebuild", "no_rebuild_no_divergence")]
+                + [r.get("rebuild_ms"), r.get("rebuild_share"), r.get("divergence_solve_ms")] for r in prof]
+        doc.p(table(["date", "size", "water", "walls", "K", "scheduled", "no rebuild", "no rebuild, no divergence",
+                     "rebuild ms", "rebuild share", "divergence solve ms"], rows))
     adj = doc.records("dfsph_adjoint.jsonl", "python experiments/dfsph_adjoint.py [--dx 0.05 --cases ...] "
                       "--out experiments/results/dfsph_adjoint.jsonl")
     if adj is not None:

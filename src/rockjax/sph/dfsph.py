@@ -351,10 +351,12 @@ def _implicit_bwd(o: _Options, res, ct: _Solve):
     _, pull_v = jax.vjp(velocity, kappa, geo, v_base)
     k_v, g_v, vb_v = pull_v(ct.v)
     kbar = ct.kappa + k_v
-    active = solved & (kappa > 0)
+    step = _step_size(geo, o)
+    drives = solved & (step > 0)  # a row without neighbours (step 0) keeps its warm start too
+    active = drives & (kappa > 0)
     b = jnp.where(active, kbar, 0.0)
     _, pull_r = jax.vjp(residual, kappa, geo, v_base)
-    step = jnp.where(active, _step_size(geo, o), 0.0)
+    step = jnp.where(active, step, 0.0)
 
     def sweep(_, mu):
         return halo.sync(mu + step * (pull_r(mu)[0] - b))
@@ -363,7 +365,7 @@ def _implicit_bwd(o: _Options, res, ct: _Solve):
     k_r, g_r, vb_r = pull_r(mu)
     g_bar = jax.tree_util.tree_map(lambda p, q: p if p.dtype == jax.dtypes.float0 else p - q, g_v, g_r)
     # rows that keep the warm start's pressure: a parameter of the others' equations as well
-    warm = fluid_row & ~solved & (kappa0 > 0)
+    warm = fluid_row & ~drives & (kappa0 > 0)
     return g_bar, vb_v - vb_r, jnp.where(warm, kbar - k_r, 0.0), None, None
 
 
