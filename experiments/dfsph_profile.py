@@ -12,7 +12,8 @@ float32, started from the state after ``--warm`` chunks of the collapse. One com
 
 Functions compiled alone mislead here: the non-pressure pass cost 30-41 ms alone at 20k and the
 same pass through WCSPH's row-blocked pair sums 8-12 ms, yet the chunk's step did not change (XLA
-fuses it with its neighbours inside the scan). So only in-chunk differences are reported.
+fuses it with its neighbours inside the scan; the direct sums were kept). So only in-chunk
+differences are reported.
 
     .venv/bin/python experiments/dfsph_profile.py [--sizes 5k 20k] [--out experiments/results/dfsph_profile.jsonl]
 """

@@ -90,7 +90,6 @@ import jax.numpy as jnp
 from ..types import Config, Kind, NeighbourList, Params, Particles
 from . import halo
 from .neighbours import neighbour_kind, pairs, take, wrap_positions
-from .pair_sum import pair_sum
 
 __all__ = ["Geometry", "geometry", "lattice_sum", "divergence", "pressure_acceleration", "advance", "prime",
            "SOLVER_COLUMNS"]
@@ -145,12 +144,13 @@ class Geometry(NamedTuple):
     width: jax.Array
 
 
-def geometry(x, kind, vol, nbrs: NeighbourList, params: Params, config: Config) -> Geometry:
-    """``Geometry`` of the fluid rows at positions ``x`` [N, 3] (step 1 of the module docstring)."""
+def geometry(x, kind, vol, nbrs: NeighbourList, params: Params, config: Config, *, pr=None) -> Geometry:
+    """``Geometry`` of the fluid rows at positions ``x`` [N, 3] (step 1 of the module docstring);
+    ``pr``: their ``neighbours.Pairs`` if already computed."""
     h = params.fluid.h
     kernel = config.scheme.kernel
     vol = _volumes(vol, h, kernel)
-    pr = pairs(x, kind, nbrs.idx, config)
+    pr = pairs(x, kind, nbrs.idx, config) if pr is None else pr
     fluid_row = kind[: config.n_fluid] == Kind.FLUID
     pair = pr.mask & fluid_row[:, None]
     V_j = take(vol, pr.idx)
@@ -405,16 +405,27 @@ def _finish(carry) -> _Solve:
     return _Solve(v=v, kappa=kappa, error=err, row_error=e, iterations=it)
 
 
-def _non_pressure_acceleration(x, v, rho, vol, kind, nbrs, params: Params, config: Config):
-    """Gravity plus the scheme's viscous term [nf, 3] m/s^2: WCSPH's momentum pass
-    (``wcsph._momentum_pair`` through ``pair_sum``, in row blocks, with its reverse mode) with the
-    pressures zero."""
+def _non_pressure_acceleration(pr, x, v, rho, vol, kind, nbrs, params: Params, config: Config):
+    """Gravity plus the scheme's viscous term [nf, 3] m/s^2 (``sph.viscosity``, pressures zero) over
+    the fluid rows' pairs ``pr``."""
     from . import wcsph
 
-    extra = wcsph.momentum_extra(x, v, rho, vol, kind, nbrs, params, config)
-    sums = pair_sum(wcsph._momentum_pair, x, *wcsph._momentum_values(v, rho, jnp.zeros_like(rho), vol, extra), params,
-                    nbrs, kind, config)
-    return wcsph._momentum_finish(sums, kind[: config.n_fluid] == Kind.FLUID, params, False)
+    scheme = config.scheme
+    f = params.fluid
+    nf = config.n_fluid
+    fluid_row = kind[:nf] == Kind.FLUID
+    F = jnp.where(pr.mask, scheme.kernel.f(pr.r, f.h), 0.0)
+    fluid_j = neighbour_kind(pr.idx, config) == Kind.FLUID
+    extra = scheme.viscosity.values(x, v, rho, vol, kind, nbrs, params, config)
+    ri = {k: a[:nf, None] for k, a in extra.items()}
+    cj = {k: take(a, pr.idx) for k, a in extra.items()}
+    vij = tuple(v[:nf, a][:, None] - take(v[:, a], pr.idx) for a in range(3))
+    zero = jnp.zeros((), v.dtype)
+    cf, lam, e = wcsph._pair_force_factors(f.rho0 * take(vol, pr.idx), rho[:nf, None], take(rho, pr.idx), zero, zero,
+                                           vij, pr.d, pr.r2, F, fluid_j, params, config, ri, cj)
+    acc = wcsph._combine(cf, lam, e, pr.d, vij)
+    acc = jnp.stack([jnp.sum(jnp.where(pr.mask, c, 0.0), axis=1) for c in acc], axis=1) + params.gravity
+    return jnp.where(fluid_row[:, None], acc, 0.0)
 
 
 def _divergence_residual(geo: Geometry, v, *, dt: float, min_neighbours: int):
@@ -461,7 +472,8 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     fluid = kind == Kind.FLUID
     fluid_row = fluid[:nf]
     solver = _solver_array(P, config)
-    geo = geometry(P.x, kind, P.vol, nbrs, params, config)
+    pr = pairs(P.x, kind, nbrs.idx, config)  # the step's one pair geometry
+    geo = geometry(P.x, kind, P.vol, nbrs, params, config, pr=pr)
     rho = _densities(P, geo, params, nf)
     loop = dict(max_iterations=scheme.max_iterations, fixed=scheme.iterations, relaxation=scheme.relaxation, dt=dt,
                 adjoint_iterations=scheme.adjoint_iterations, implicit=scheme.gradient == "implicit")
@@ -477,7 +489,7 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
                     min_iterations=scheme.min_divergence_iterations, model="akinci", **loop)
         v = sv.v
 
-    a_np = _non_pressure_acceleration(P.x, v, rho, P.vol, kind, nbrs, params, config)
+    a_np = _non_pressure_acceleration(pr, P.x, v, rho, P.vol, kind, nbrs, params, config)
     v_visc = v
     v = v.at[:nf].add(dt * a_np)
     sd = _solve(geo, v, scheme.warm_start * solver[:nf, 0], functools.partial(
