@@ -63,8 +63,10 @@ def run(scheme: str, res: int, *, kernel: str | None = None, h_factor: float | N
     cfg = result.scene.config
     h_dx = round(float(scene.params.fluid.h) * res / A, 3)
     return {"case": "dambreak2d_mm_n2_2", "code": "rockjax", "scheme": scheme,
-            "label": _label(scheme, cfg.scheme.kernel.name, h_dx, cfl, cfg.scheme.viscosity.name),
+            "label": _label(scheme, cfg.scheme.kernel.name, h_dx, cfl, cfg.scheme.viscosity.name,
+                            getattr(cfg.scheme, "wall_pressure", None)),
             "kernel": cfg.scheme.kernel.name, "h_dx": h_dx, "viscosity": cfg.scheme.viscosity.name,
+            "wall_pressure": getattr(cfg.scheme, "wall_pressure", None),
             "dt": cfg.dt, "a_over_dx": res, "dx": A / res,
             "n_fluid": scene.counts()["fluid"], "n_wall": scene.counts()["wall"], "steps": result.stats["steps"],
             "regrows": result.stats["regrows"], "wall_s": round(wall, 2), "wall_s_with_compile": round(wall_cold, 2),
@@ -76,10 +78,11 @@ def run(scheme: str, res: int, *, kernel: str | None = None, h_factor: float | N
             "load_before": round(load0, 2), "load_after": round(os.getloadavg()[0], 2)}
 
 
-def _label(scheme: str, kernel: str, h_dx: float, cfl, viscosity: str) -> str:
+def _label(scheme: str, kernel: str, h_dx: float, cfl, viscosity: str, walls: str | None = None) -> str:
     """The plot's name of a rockjax setting: the scheme, its kernel and h / dx, its viscous term,
     and a CFL number given on the command line."""
-    return f"{scheme} ({kernel}, h/dx {h_dx:g}, {viscosity}" + (f", cfl {cfl:g})" if cfl is not None else ")")
+    return (f"{scheme} ({kernel}, h/dx {h_dx:g}, {viscosity}" + (f", {walls} walls" if walls else "")
+            + (f", cfl {cfl:g})" if cfl is not None else ")"))
 
 
 def _peers(results: pathlib.Path) -> list[dict]:
