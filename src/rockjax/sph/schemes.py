@@ -228,7 +228,8 @@ class DFSPH(FluidScheme):
     ``Status.SOLVER_NOT_CONVERGED``), the divergence solve's least ``min_divergence_iterations``
     (1, as SPlisHSPlasH's; the density solve's 2 as its); ``iterations``: None runs each solve until it converges (a
     ``while_loop``), an int runs exactly that many sweeps, all of them; ``gradient``: the reverse
-    mode of a solve, "unrolled" (through the fixed sweeps: needs ``iterations``) or "implicit" (the
+    mode of a solve, "unrolled" (through the fixed sweeps: needs ``iterations``; with ``None`` the
+    run has no derivatives, and ``jax.grad`` says so) or "implicit" (the
     implicit function theorem at the solve's result, the adjoint solved by ``adjoint_iterations``
     Jacobi sweeps: any ``iterations``, exact for a converged solve; ``sph.dfsph`` "Gradients");
     ``divergence_solve``: run the divergence solve; ``min_neighbours``: rows
