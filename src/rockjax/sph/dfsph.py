@@ -278,9 +278,8 @@ def _step_size(geo: Geometry, o: _Options):
 
 def _iterate(o: _Options, geo: Geometry, v, kappa0, fluid_row, solved) -> _Solve:
     """Projected Jacobi (module docstring) from the warm start ``kappa0`` [nf] (applied first);
-    ``o.fixed``: the sweeps of the differentiable form (None: while_loop). ``solved`` [nf]: the rows
-    whose residual the solve drives (unused here: a row outside it has a zero residual)."""
-    del solved
+    ``o.fixed``: the sweeps of the differentiable form (None: while_loop). ``solved`` [nf]: the fluid
+    rows whose residual the solve drives (the others keep the warm start's pressure)."""
     nf = geo.idx.shape[0]
     counted = halo.owned(fluid_row)  # the rows whose residuals this device adds to the mean
     n_fluid = jnp.maximum(halo.total(jnp.sum(counted)), 1)
@@ -289,7 +288,7 @@ def _iterate(o: _Options, geo: Geometry, v, kappa0, fluid_row, solved) -> _Solve
     v_base = v
 
     def sweep(v, kappa):
-        r = jnp.where(fluid_row, o.residual(geo, v), 0.0)
+        r = jnp.where(solved, o.residual(geo, v), 0.0)
         new = halo.sync(jnp.where(fluid_row, jnp.maximum(kappa + step_size * r, 0.0), 0.0))
         e = jnp.where((new > 0) | (r > 0), jnp.abs(r), 0.0)
         mine = e if counted is fluid_row else jnp.where(counted, e, 0.0)  # (e is 0 off the fluid rows)
@@ -428,10 +427,10 @@ def _non_pressure_acceleration(pr, x, v, rho, vol, kind, nbrs, params: Params, c
     return jnp.where(fluid_row[:, None], acc, 0.0)
 
 
-def _divergence_residual(geo: Geometry, v, *, dt: float, min_neighbours: int):
-    """The divergence solve's residual [nf]: ``dt D_i(v)``, zero on rows with fewer than
-    ``min_neighbours`` neighbours (a free surface's missing neighbours are not compression)."""
-    return jnp.where(geo.count < min_neighbours, 0.0, dt * divergence(geo, v))
+def _divergence_residual(geo: Geometry, v, *, dt: float):
+    """The divergence solve's residual [nf]: ``dt D_i(v)`` (``advance`` drives it only on rows with
+    at least ``min_neighbours`` neighbours: a free surface's missing neighbours are not compression)."""
+    return dt * divergence(geo, v)
 
 
 def _density_residual(geo: Geometry, v, *, dt: float, weight: float):
@@ -483,9 +482,8 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     zeros = jnp.zeros((nf,), v.dtype)
     sv = _Solve(v=v, kappa=zeros, error=jnp.zeros((), v.dtype), row_error=zeros, iterations=jnp.zeros((), jnp.int32))
     if scheme.divergence_solve:
-        sv = _solve(geo, v, scheme.warm_start * solver[:nf, 1], functools.partial(_divergence_residual, dt=dt,
-                    min_neighbours=scheme.min_neighbours), fluid_row,
-                    fluid_row & (geo.count >= scheme.min_neighbours), tolerance=scheme.divergence_tolerance,
+        sv = _solve(geo, v, scheme.warm_start * solver[:nf, 1], functools.partial(_divergence_residual, dt=dt),
+                    fluid_row, fluid_row & (geo.count >= scheme.min_neighbours), tolerance=scheme.divergence_tolerance,
                     min_iterations=scheme.min_divergence_iterations, model="akinci", **loop)
         v = sv.v
 
