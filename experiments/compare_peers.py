@@ -86,13 +86,16 @@ def _monitor():
         sys.path.pop(0)
 
 
-def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None, period: int | None = None) -> dict:
-    """Time rockjax on the peers' 3D dam break of ``size`` for the peers' WCSPH physical window
-    (or for ``blocks`` x ``period`` steps when ``blocks`` is given: the scaling mode).
+def compiled_chunk(size: str, scheme: str, *, blocks: int | None = None, period: int | None = None) -> dict:
+    """The peers' 3D dam break of ``size`` as one compiled chunk, regrown until it runs clean.
 
-    The steps are scanned as ``simulate`` scans them (``rollout.scheduled_step``): the list is
-    rebuilt at step 0, on displacement, and at least every ``period`` steps (default the
-    driver's, ``driver.DEFAULT_REBUILD_PERIOD``).
+    Returns a dict: ``chunk`` (compiled, ``(state, params) -> (state, sweeps)``), ``state`` (primed),
+    ``params``, ``config``, ``counts``, ``dx``, ``steps``, ``period``, ``regrows``, ``setup_s``,
+    ``compile_s`` and ``sweeps`` (per step the DFSPH solves' sweeps, [steps, 2], or None). The
+    steps are those of the peers' physical window, or ``blocks`` x ``period`` (the scaling mode);
+    they are scanned as ``simulate`` scans them (``rollout.scheduled_step``): the list is rebuilt at
+    step 0, on displacement, and at least every ``period`` steps (default the driver's,
+    ``driver.DEFAULT_REBUILD_PERIOD``).
     """
     import jax
 
@@ -113,7 +116,6 @@ def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None,
     scene = rj.scenes.dam_break(dx=dx, scheme=rj.sph.from_names(scheme))
     setup_s = time.perf_counter() - t0
     config, params, state0 = scene.config, scene.params, scene.state
-    counts = scene.counts()
     regrows = 0
     compile_s = 0.0
     period = max(config.rebuild_every, DEFAULT_REBUILD_PERIOD) if period is None else int(period)
@@ -141,6 +143,21 @@ def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None,
             raise RuntimeError(f"rockjax {size}/{scheme}: gave up regrowing ({rj.Status.describe(bits)})")
         config, period = _grow(config, period, out if int(out.status) else state, bits)
         state0 = resize(state0, config)
+    return {"chunk": chunk_c, "state": state, "params": params, "config": config, "counts": scene.counts(),
+            "dx": dx, "steps": steps, "period": period, "regrows": regrows, "setup_s": setup_s,
+            "compile_s": compile_s, "sweeps": sweeps}
+
+
+def run_rockjax(size: str, scheme: str, *, reps: int, blocks: int | None = None, period: int | None = None) -> dict:
+    """Time rockjax on the peers' 3D dam break of ``size`` (``compiled_chunk``), best of ``reps``."""
+    import jax
+
+    import rockjax as rj
+
+    c = compiled_chunk(size, scheme, blocks=blocks, period=period)
+    chunk_c, state, params, config, counts = c["chunk"], c["state"], c["params"], c["config"], c["counts"]
+    dx, steps, period, regrows, sweeps = c["dx"], c["steps"], c["period"], c["regrows"], c["sweeps"]
+    setup_s, compile_s = c["setup_s"], c["compile_s"]
     Mon = _monitor()
     mon = Mon().start() if Mon else None
     walls, cpus = [], []
