@@ -151,11 +151,15 @@ def profile(size: str, scheme: str, *, runs: int, trace_runs: int, top: int, blo
                  op_ms_per_step=round(total_us / 1e3 / n, 4), busy_fraction=round(total_us / 1e3 / n / wall_ms, 3),
                  distinct_ops=len(per), launches_per_step=round(sum(v[1] for v in per.values()) / n, 1),
                  fluid_particle_steps_per_s=round(c["counts"]["fluid"] / (wall_ms / 1e3), 1))]
+    def source(name):  # a GPU kernel is named after its instruction with '_' for the last '.'
+        hit = sources.get(name) or sources.get(re.sub(r"_(\d+)$", r".\1", name))
+        return hit or ("", "?")
+
     lines = collections.defaultdict(float)
     for name, (us, _) in per.items():
-        lines[sources.get(name, ("", "?"))[1]] += us
+        lines[source(name)[1]] += us
     for name, (us, cnt) in sorted(per.items(), key=lambda kv: -kv[1][0])[:top]:
-        op, src = sources.get(name, ("", "?"))
+        op, src = source(name)
         recs.append(dict(base, bench="gpu_profile_op", op=name, op_name=op[-160:], source=src,
                          ms_per_step=round(us / 1e3 / n, 4), share=round(us / max(total_us, 1e-9), 4),
                          launches_per_step=round(cnt / n, 2)))
