@@ -86,7 +86,8 @@ def _monitor():
         sys.path.pop(0)
 
 
-def compiled_chunk(size: str, scheme: str, *, blocks: int | None = None, period: int | None = None) -> dict:
+def compiled_chunk(size: str, scheme: str, *, blocks: int | None = None, period: int | None = None,
+                   tuning: dict | None = None) -> dict:
     """The peers' 3D dam break of ``size`` as one compiled chunk, regrown until it runs clean.
 
     Returns a dict: ``chunk`` (compiled, ``(state, params) -> (state, sweeps)``), ``state`` (primed),
@@ -95,7 +96,7 @@ def compiled_chunk(size: str, scheme: str, *, blocks: int | None = None, period:
     steps are those of the peers' physical window, or ``blocks`` x ``period`` (the scaling mode);
     they are scanned as ``simulate`` scans them (``rollout.scheduled_step``): the list is rebuilt at
     step 0, on displacement, and at least every ``period`` steps (default the driver's,
-    ``driver.DEFAULT_REBUILD_PERIOD``).
+    ``driver.DEFAULT_REBUILD_PERIOD``). ``tuning``: ``Tuning`` fields to set (``Config.tuned``).
     """
     import jax
 
@@ -116,6 +117,8 @@ def compiled_chunk(size: str, scheme: str, *, blocks: int | None = None, period:
     scene = rj.scenes.dam_break(dx=dx, scheme=rj.sph.from_names(scheme))
     setup_s = time.perf_counter() - t0
     config, params, state0 = scene.config, scene.params, scene.state
+    if tuning:
+        config = config.tuned(**tuning)
     regrows = 0
     compile_s = 0.0
     period = max(config.rebuild_every, DEFAULT_REBUILD_PERIOD) if period is None else int(period)

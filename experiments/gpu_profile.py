@@ -113,10 +113,13 @@ def device_events(trace: dict) -> tuple[list, str]:
     return host, "host hlo_op events"
 
 
-def profile(size: str, scheme: str, *, runs: int, trace_runs: int, top: int, blocks: int) -> list[dict]:
+def profile(size: str, scheme: str, *, runs: int, trace_runs: int, top: int, blocks: int,
+            wall_sums: str | None = None) -> list[dict]:
     import jax
 
-    c = compiled_chunk(size, scheme, blocks=blocks)
+    from rockjax.tuning import WallSums
+
+    c = compiled_chunk(size, scheme, blocks=blocks, tuning={"wall_sums": WallSums(wall_sums)} if wall_sums else None)
     chunk, state, params, steps = c["chunk"], c["state"], c["params"], c["steps"]
     sources = hlo_sources(chunk.as_text())
     jax.block_until_ready(chunk(state, params))
@@ -145,7 +148,8 @@ def profile(size: str, scheme: str, *, runs: int, trace_runs: int, top: int, blo
     total_us = sum(v[0] for v in per.values())
     base = {"size": size, "scheme": scheme, "n_fluid": c["counts"]["fluid"], "n_wall": c["counts"]["wall"],
             "steps": steps, "rebuild_period": c["period"], "K": c["config"].neighbour_capacity,
-            "dtype": str(state.particles.x.dtype), "backend": jax.default_backend(), "events_from": where}
+            "dtype": str(state.particles.x.dtype), "backend": jax.default_backend(), "events_from": where,
+            "wall_sums": c["config"].tuning.wall_sums_form().value}
     wall_ms = 1e3 * min(walls) / steps
     recs = [dict(base, bench="gpu_profile_total", wall_ms_per_step=round(wall_ms, 4),
                  op_ms_per_step=round(total_us / 1e3 / n, 4), busy_fraction=round(total_us / 1e3 / n / wall_ms, 3),
@@ -177,12 +181,15 @@ def main(argv=None):
     ap.add_argument("--trace-runs", type=int, default=1, help="traced runs of the chunk")
     ap.add_argument("--blocks", type=int, default=2, help="rebuild periods per chunk")
     ap.add_argument("--top", type=int, default=25, help="largest instructions / source lines kept")
+    ap.add_argument("--wall-sums", nargs="+", default=[None], help="Tuning.wall_sums values (scatter, ranges); default: the backend's")
     ap.add_argument("--out", default=None, help="append JSON lines here too")
     a = ap.parse_args(argv)
     for size in a.size:
         for scheme in a.scheme:
-            for r in profile(size, scheme, runs=a.runs, trace_runs=a.trace_runs, top=a.top, blocks=a.blocks):
-                emit(r, a.out)
+            for ws in a.wall_sums:
+                for r in profile(size, scheme, runs=a.runs, trace_runs=a.trace_runs, top=a.top, blocks=a.blocks,
+                                 wall_sums=ws):
+                    emit(r, a.out)
 
 
 if __name__ == "__main__":

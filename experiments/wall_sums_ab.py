@@ -1,7 +1,9 @@
-"""The walls' extrapolation sums (``walls.adami_sums``) over the real flat (fluid, wall) list, three
-ways: the list in row order summed by ``segment_sum`` (a scatter-add: on a GPU, atomics into the
-wall rows), the list in wall order summed by ``segment_sum(indices_are_sorted=True)``, and the
-list in wall order summed as padded per-wall ranges (a gather and a row sum, no scatter).
+"""The walls' extrapolation sums (``walls.adami_sums``) over the real flat (fluid, wall) list, four
+ways: the list in row order summed by ``segment_sum`` (``WallSums.SCATTER``, a scatter-add: on a
+GPU, atomics into the wall rows), the list in wall order summed by
+``segment_sum(indices_are_sorted=True)``, the list in wall order summed as padded ranges over the
+walls near the fluid only (a gather and a row sum, no scatter), and rockjax's ``WallSums.RANGES``
+(a segmented scan over the wall-ordered list, read at each wall's last slot).
 
 The dam break of ``--size`` (``compare_peers``) is primed; the list's pairs are sorted by wall once
 (outside the timing: a list rebuild's job). Each variant is one jitted function from positions,
@@ -37,11 +39,14 @@ def main(argv=None):
 
     import rockjax as rj
     from rockjax.sph.neighbours import take
-    from rockjax.sph.walls import WallPairs, adami_sums, wall_pair_geometry
+    from rockjax.sph.walls import adami_sums, wall_pair_geometry
     from rockjax.step import prime
+    from rockjax.tuning import WallSums
 
     scene = rj.scenes.dam_break(dx=0.5 / NX[a.size])
-    config, params = scene.config, scene.params
+    config, params = scene.config.tuned(wall_sums=WallSums.SCATTER), scene.params
+    ranges_config = config.tuned(wall_sums=WallSums.RANGES)
+    nbrs_r = jax.jit(lambda s, p: prime(s, p, ranges_config))(scene.state, params).nbrs
     state = jax.jit(lambda s, p: prime(s, p, config))(scene.state, params)
     P, nbrs, n = state.particles, state.nbrs, config.n_particles
     f = params.fluid
@@ -62,7 +67,10 @@ def main(argv=None):
     gravity = params.gravity
 
     def current(x, p, rho):
-        return adami_sums(wall_pair_geometry(x, nbrs, grid), p, rho, gravity, f.h, w_fn, n)
+        return adami_sums(wall_pair_geometry(x, nbrs, grid), p, rho, gravity, f.h, w_fn, config)
+
+    def shipped_ranges(x, p, rho):
+        return adami_sums(wall_pair_geometry(x, nbrs_r, grid), p, rho, gravity, f.h, w_fn, ranges_config)
 
     def sorted_segment(x, p, rho):
         wp = wall_pair_geometry(x, nbrs_s, grid)
@@ -88,7 +96,7 @@ def main(argv=None):
     args = (P.x, P.p, P.rho)
     ref = None
     for name, fn in [("row_order_segment_sum", current), ("wall_order_segment_sum_sorted", sorted_segment),
-                     ("wall_order_ranges", ranges)]:
+                     ("wall_order_ranges_near_walls", ranges), ("rockjax_wall_sums_ranges", shipped_ranges)]:
         jf = jax.jit(fn)
         t0 = time.perf_counter()
         out = jax.block_until_ready(jf(*args))

@@ -15,7 +15,7 @@ from typing import Optional
 
 import jax
 
-__all__ = ["Adjoint", "GatherForm", "Tuning", "on_accelerator"]
+__all__ = ["Adjoint", "GatherForm", "Tuning", "WallSums", "on_accelerator"]
 
 
 class Adjoint(enum.Enum):
@@ -38,6 +38,19 @@ class GatherForm(enum.Enum):
     #: the values stacked into one [N, C] array and gathered by rows ([R, K, C]): its reverse mode
     #: scatters rows, which DESIGN.md measured 8x faster on a GPU than the component scatters
     ROWS = "rows"
+
+
+class WallSums(enum.Enum):
+    """How the sums onto the wall particles over the flat (fluid, wall) list run (``Tuning.wall_sums``):
+    the Adami extrapolation each step, dynamic walls' continuity, the no-slip velocity."""
+
+    #: ``segment_sum`` over the list in row order: one scatter-add, the fastest on the CPU (serial
+    #: there); on a GPU its atomics contend on each wall (51 % of a 1M-particle WCSPH step)
+    SCATTER = "scatter"
+    #: the list rebuilt in wall order (a sort per list build) with each wall's first slot
+    #: (``NeighbourList.wall_start``); each step sums each wall's run of consecutive slots by a
+    #: segmented scan and reads the sums at the runs' ends: no scatter, no atomics
+    RANGES = "ranges"
 
 
 def on_accelerator() -> bool:
@@ -72,6 +85,7 @@ class Tuning:
             functions (``sph.pullbacks``; False: JAX's VJP of the pair function from each end).
         save_pair_sums: under ``Adjoint.PAIR_SUMS`` a checkpointed rollout saves the pair sums'
             outputs instead of recomputing them (``rollout``).
+        wall_sums: ``WallSums``; default ``SCATTER`` on the CPU, ``RANGES`` on accelerators.
     """
 
     row_tile: Optional[int] = None
@@ -80,6 +94,7 @@ class Tuning:
     backward_tile: Optional[int] = None
     hand_pullbacks: bool = True
     save_pair_sums: bool = True
+    wall_sums: Optional[WallSums] = None
 
     def __post_init__(self):
         for name in ("row_tile", "backward_tile"):
@@ -90,6 +105,8 @@ class Tuning:
             raise ValueError(f"Tuning.gather must be a GatherForm or None (got {self.gather!r})")
         if self.adjoint is not None and not isinstance(self.adjoint, Adjoint):
             raise ValueError(f"Tuning.adjoint must be an Adjoint or None (got {self.adjoint!r})")
+        if self.wall_sums is not None and not isinstance(self.wall_sums, WallSums):
+            raise ValueError(f"Tuning.wall_sums must be a WallSums or None (got {self.wall_sums!r})")
 
     def replace(self, **changes) -> "Tuning":
         return dataclasses.replace(self, **changes)
@@ -111,6 +128,11 @@ class Tuning:
         if self.adjoint is not None:
             return self.adjoint
         return Adjoint.PAIR_SUMS if row_tile > 0 else Adjoint.AUTODIFF
+
+    def wall_sums_form(self) -> WallSums:
+        if self.wall_sums is not None:
+            return self.wall_sums
+        return WallSums.RANGES if on_accelerator() else WallSums.SCATTER
 
     def backward_rows(self) -> int:
         return BACKWARD_TILE if self.backward_tile is None else self.backward_tile

@@ -20,11 +20,12 @@ from typing import Any, Optional
 import jax
 import jax.numpy as jnp
 
-from .tuning import Adjoint, GatherForm, Tuning
+from .tuning import Adjoint, GatherForm, Tuning, WallSums
 
 __all__ = [
     "Adjoint",
     "GatherForm",
+    "WallSums",
     "Coupling",
     "Kind",
     "Status",
@@ -377,6 +378,12 @@ class Config:
         """Length of the (fluid, block particle) sub-list (``capacities.body_pairs``)."""
         return self.capacities.body_pairs
 
+    @property
+    def wall_ordered(self) -> bool:
+        """Whether list builds order the flat (fluid, wall) list by wall and the steps sum onto the
+        walls by a segmented scan over each wall's run (``tuning.wall_sums`` resolved to ``WallSums.RANGES``)."""
+        return self.needs_wall_pairs and self.n_wall > 0 and self.tuning.wall_sums_form() is WallSums.RANGES
+
     def grown(self, **changes) -> "Config":
         """This config with some buffer sizes changed (``Capacities`` fields), e.g. ``grown(neighbours=128)``."""
         return self.replace(capacities=self.capacities.replace(**changes))
@@ -563,8 +570,11 @@ class NeighbourList:
         max_count: the largest neighbour count seen at the builds since the driver reset it.
         max_run: the fullest run of cells seen (compare with ``Config.cell_capacity``).
         wall_row, wall_col: [wall_pair_capacity] int32, the (fluid row i, wall neighbour j) pairs
-            of ``idx`` (fluid i, wall j), in row order; slots past ``wall_count`` hold (0, 0) and
-            are masked. Sums onto the walls run over this short list instead of all of ``idx``.
+            of ``idx`` (fluid i, wall j), in row order (in wall order, rows ascending within a
+            wall, where ``Config.wall_ordered``); slots past ``wall_count`` hold (0, 0) and are
+            masked. Sums onto the walls run over this short list instead of all of ``idx``.
+        wall_start: [n_wall + 1] int32, where ``Config.wall_ordered``: the first slot of wall
+            particle ``n_fluid + j``'s pairs (the last entry ``wall_count``); zeros otherwise.
         wall_count: the number of such pairs at the last build; max_wall_count: the largest seen
             since the driver reset it (compare with ``Config.wall_pair_capacity``).
         body_row, body_col: [body_pair_capacity] int32, the pairs of ``wall_row`` / ``wall_col``
@@ -580,6 +590,7 @@ class NeighbourList:
     wall_col: jax.Array
     wall_count: jax.Array
     max_wall_count: jax.Array
+    wall_start: jax.Array
     body_row: jax.Array
     body_col: jax.Array
     body_count: jax.Array

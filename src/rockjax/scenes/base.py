@@ -316,7 +316,8 @@ def empty_neighbours(config: Config, x) -> NeighbourList:
     return NeighbourList(
         idx=jnp.tile(jnp.arange(nf, dtype=jnp.int32)[:, None], (1, config.neighbour_capacity)),
         x_ref=jnp.asarray(x), max_count=zero, max_run=zero, wall_row=none, wall_col=none, wall_count=zero,
-        max_wall_count=zero, body_row=no_body, body_col=no_body, body_count=zero, max_body_count=zero,
+        max_wall_count=zero, wall_start=jnp.zeros((config.n_wall + 1,), jnp.int32),
+        body_row=no_body, body_col=no_body, body_count=zero, max_body_count=zero,
     )
 
 

@@ -45,7 +45,8 @@ import numpy as np
 from ..types import Config, GatherForm, GridSpec, Kind, NeighbourList, Particles, Status
 
 __all__ = ["cell_coords", "cell_order", "search_grid", "range_capacity", "sort_by_cell", "build", "rebuild", "pair_geometry", "safe_norm", "wrap_positions",
-           "min_image", "transpose_sum", "take", "Pairs", "pairs", "Rows", "scan_rows", "wall_pairs"]
+           "min_image", "transpose_sum", "take", "Pairs", "pairs", "Rows", "scan_rows", "wall_pairs",
+           "order_by_wall", "wall_sum"]
 
 
 def cell_coords(x, grid: GridSpec):
@@ -590,6 +591,61 @@ def body_pairs(row, col, count, body, config: Config):
     return out[0], out[1], n_on, status
 
 
+def order_by_wall(row, col, count, config: Config):
+    """The flat (fluid, wall) list reordered by wall (``Config.wall_ordered``).
+
+    Args:
+        row, col: [M] the pairs (``wall_pairs``), valid below ``count``.
+    Returns:
+        ``(row [M], col [M], start [n_wall + 1])``: the pairs sorted by wall particle (stable:
+        rows ascending within a wall; padding last) and the first slot of each wall's run
+        (``start[-1] == count``).
+
+    One sort per list build, so that each step's sums onto the walls (``wall_sum``) run over
+    consecutive slots instead of scattering onto the walls.
+    """
+    nf, n = config.n_fluid, config.n_particles
+    M = row.shape[0]
+    key = jnp.where(jnp.arange(M) < count, col, n)
+    order = jnp.argsort(key, stable=True)
+    start = jnp.searchsorted(key[order], jnp.arange(nf, n + 1, dtype=key.dtype), side="left").astype(jnp.int32)
+    return take(row, order), take(col, order), start
+
+
+def _segment_scan(values, first):
+    """Inclusive sums of ``values`` [M, ...] along axis 0, restarting where ``first`` [M] is True
+    (a parallel scan: O(M) work, O(log M) depth; each sum is over its own segment only)."""
+    def op(a, b):
+        (va, fa), (vb, fb) = a, b
+        restart = fb.reshape(fb.shape + (1,) * (vb.ndim - fb.ndim))
+        return jnp.where(restart, vb, va + vb), fa | fb
+
+    return jax.lax.associative_scan(op, (values, first))[0]
+
+
+def wall_sum(values, wp, config: Config):
+    """Sum per-pair ``values`` [M, ...] of the flat (fluid, wall) list onto the pairs' walls: [N, ...].
+
+    ``wp``: the list's ``walls.WallPairs``; ``values`` must be zero past its count (masked by
+    ``wp.valid``). Fluid rows get zeros. Where ``Config.wall_ordered`` each wall's run of
+    consecutive slots is summed by a segmented scan and read at its last slot; otherwise one
+    ``segment_sum`` over the wall column (a scatter-add: on a GPU its atomics contend on each
+    wall). The two agree to float rounding (the summation order differs).
+    """
+    n = config.n_particles
+    if not config.wall_ordered or wp.start is None:
+        return jax.ops.segment_sum(values, wp.col, num_segments=n)
+    M = values.shape[0]
+    if M == 0:
+        return jnp.zeros((n,) + values.shape[1:], values.dtype)
+    first = jnp.concatenate([jnp.ones((1,), bool), wp.col[1:] != wp.col[:-1]])
+    scanned = _segment_scan(values, first)
+    end = wp.start[1:]
+    has = (end > wp.start[:-1]).reshape((-1,) + (1,) * (values.ndim - 1))
+    walls = jnp.where(has, take(scanned, jnp.maximum(end - 1, 0)), 0)
+    return jnp.concatenate([jnp.zeros((config.n_fluid,) + values.shape[1:], values.dtype), walls])
+
+
 def rebuild(particles: Particles, config: Config):
     """Sort the particles by cell and build a fresh list. Returns ``(particles, NeighbourList, status)``."""
     particles = sort_by_cell(particles, config)
@@ -599,6 +655,10 @@ def rebuild(particles: Particles, config: Config):
     else:  # no sum reads the (fluid, wall) pairs: the list stays empty (kept at its configured length)
         row = col = jnp.zeros((config.wall_pair_capacity,), jnp.int32)
         count, wall_status = jnp.zeros((), jnp.int32), jnp.zeros((), jnp.int32)
+    if config.wall_ordered:
+        row, col, start = order_by_wall(row, col, count, config)
+    else:
+        start = jnp.zeros((config.n_wall + 1,), jnp.int32)
     if config.has_body_pairs:
         brow, bcol, bcount, body_status = body_pairs(row, col, count, particles.body, config)
     else:  # no sub-list (kept at its configured length)
@@ -606,6 +666,7 @@ def rebuild(particles: Particles, config: Config):
         bcount, body_status = jnp.zeros((), jnp.int32), jnp.zeros((), jnp.int32)
     nbrs = NeighbourList(idx=idx, x_ref=jax.lax.stop_gradient(particles.x), max_count=max_count, max_run=run,
                          wall_row=row, wall_col=col, wall_count=count, max_wall_count=count,
+                         wall_start=start,
                          body_row=brow, body_col=bcol, body_count=bcount, max_body_count=bcount)
     return particles, nbrs, status | wall_status | body_status
 

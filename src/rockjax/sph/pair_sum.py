@@ -46,7 +46,7 @@ import jax.numpy as jnp
 from jax.ad_checkpoint import checkpoint_name
 
 from ..types import Adjoint, Config, GatherForm, Kind
-from .neighbours import Pairs, Rows, neighbour_kind, pairs, scan_rows, take
+from .neighbours import Pairs, Rows, neighbour_kind, pairs, scan_rows, take, wall_sum
 from .walls import wall_pair_geometry
 
 __all__ = ["pair_sum", "gathered", "with_pullback", "SAVED_NAME"]
@@ -179,7 +179,7 @@ def _sums_bwd(fn, config, shared, res, ct):
             ct_xw = tuple(-c for c in ct_dw)  # wp.d = x_row - x_col
         # a scatter per quantity: stacked into one [M, C] scatter, XLA:CPU computed every column's
         # whole expression again per column (continuity at 8.4k water: 7.2 ms against 2.6-3.5 ms)
-        seg = lambda v: jax.ops.segment_sum(jnp.where(valid, v, 0.0), col, num_segments=n)  # noqa: E731
+        seg = lambda v: wall_sum(jnp.where(valid, v, 0.0), wp, config)  # noqa: E731
         ct_col = jax.tree_util.tree_map(lambda a, v: a + seg(v), ct_col, ct_cw)
         ct_x = ct_x + jnp.stack([seg(ct_xw[a]) for a in range(3)], axis=1)
     return ct_x, ct_row, ct_col, ct_params, None, None

@@ -12,13 +12,13 @@ are transposes of the fluid rows (``transpose_sum``), numerator and denominator 
 from __future__ import annotations
 
 import dataclasses
-from typing import ClassVar, NamedTuple
+from typing import ClassVar, NamedTuple, Optional
 
 import jax
 import jax.numpy as jnp
 
 from ..types import Config, Kind
-from .neighbours import Pairs, min_image, safe_norm, take, transpose_sum
+from .neighbours import Pairs, min_image, safe_norm, take, transpose_sum, wall_sum
 from .terms import Term
 
 __all__ = ["WallModel", "Adami", "DynamicWalls", "adami_pressure", "adami_terms", "adami_finish", "WallPairs", "wall_pair_geometry", "adami_sums"]
@@ -28,7 +28,9 @@ class WallPairs(NamedTuple):
     """Geometry of the flat (fluid row, wall) pair list (``NeighbourList.wall_row`` / ``wall_col``).
 
     ``row``, ``col``: [M] indices; ``d``: three [M] arrays ``x_row - x_col`` (minimum image);
-    ``r``: [M] m; ``valid``: [M] True for the first ``wall_count`` slots.
+    ``r``: [M] m; ``valid``: [M] True for the first ``wall_count`` slots; ``start``: [n_wall + 1]
+    each wall's first slot where the list is in wall order (``NeighbourList.wall_start``; None for
+    the block sub-list), read by ``neighbours.wall_sum``.
     """
 
     row: jax.Array
@@ -36,6 +38,7 @@ class WallPairs(NamedTuple):
     d: tuple
     r: jax.Array
     valid: jax.Array
+    start: Optional[jax.Array] = None
 
 
 def wall_pair_geometry(x, nbrs, grid, *, bodies: bool = False) -> WallPairs:
@@ -48,18 +51,18 @@ def wall_pair_geometry(x, nbrs, grid, *, bodies: bool = False) -> WallPairs:
     d = tuple(min_image(take(x[:, a], row) - take(x[:, a], col), a, grid) for a in range(3))
     r = safe_norm(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
     valid = jnp.arange(row.shape[0]) < count
-    return WallPairs(row=row, col=col, d=d, r=r, valid=valid)
+    return WallPairs(row=row, col=col, d=d, r=r, valid=valid, start=None if bodies else nbrs.wall_start)
 
 
-def adami_sums(wp: WallPairs, p, rho, gravity, h, w_fn, n: int):
-    """The wall sums of ``adami_terms`` over the flat pair list: [n, 2] (``adami_finish`` takes them).
+def adami_sums(wp: WallPairs, p, rho, gravity, h, w_fn, config: Config):
+    """The wall sums of ``adami_terms`` over the flat pair list: [N, 2] (``adami_finish`` takes them).
 
     ``p``, ``rho``: [>= n_fluid] the fluid rows' pressures Pa and densities kg/m^3.
     """
     w = jnp.where(wp.valid, w_fn(wp.r, h), 0.0)
     g_d = wp.d[0] * gravity[0] + wp.d[1] * gravity[1] + wp.d[2] * gravity[2]  # g . (x_f - x_w)
     vals = jnp.stack([w * (take(p, wp.row) - take(rho, wp.row) * g_d), w], axis=-1)
-    return jax.ops.segment_sum(vals, wp.col, num_segments=n)
+    return wall_sum(vals, wp, config)
 
 
 def adami_terms(pr: Pairs, p_rows, rho_rows, kind, gravity, h, w_fn, *, kind_j=None):
@@ -149,10 +152,9 @@ class Adami(WallModel):
     def viscous_velocity(self, v, kind, wp: WallPairs, params, config):
         if not self.no_slip:
             return v
-        n = v.shape[0]
         w = jnp.where(wp.valid, config.scheme.kernel.w(wp.r, params.fluid.h), 0.0)
-        num = jax.ops.segment_sum(w[:, None] * take(v, wp.row), wp.col, num_segments=n)
-        den = jax.ops.segment_sum(w, wp.col, num_segments=n)
+        both = wall_sum(jnp.concatenate([w[:, None] * take(v, wp.row), w[:, None]], axis=1), wp, config)
+        num, den = both[:, :3], both[:, 3]
         v_fluid = jnp.where((den > 0)[:, None], num / jnp.where(den > 0, den, 1.0)[:, None], v)
         return jnp.where((kind == Kind.WALL)[:, None], 2.0 * v - v_fluid, v)
 

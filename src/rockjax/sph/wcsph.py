@@ -30,7 +30,7 @@ import jax.numpy as jnp
 from ..types import Config, Kind, NeighbourList, Params, Particles
 from . import pullbacks
 from .eos import tait_density, tait_pressure
-from .neighbours import Pairs, Rows, neighbour_kind, pairs, safe_norm, scan_rows, take, transpose_sum, wrap_positions
+from .neighbours import Pairs, Rows, neighbour_kind, pairs, safe_norm, scan_rows, take, transpose_sum, wall_sum, wrap_positions
 from .pair_sum import gathered, pair_sum, with_pullback
 from .walls import adami_finish, adami_sums, adami_terms, wall_pair_geometry
 
@@ -465,12 +465,12 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
         V_i = f.rho0 * take(P.vol, wp.row) / take(P.rho, wp.row)
         vr = sum((take(v_half[:, a], wp.row) - take(v_half[:, a], wp.col)) * wp.d[a] for a in range(3))
         F = jnp.where(wp.valid, f_fn(wp.r, f.h), 0.0)
-        drho_w = rho_w * jax.ops.segment_sum(V_i * vr * F, wp.col, num_segments=n)[nf:]
+        drho_w = rho_w * wall_sum(V_i * vr * F, wp, config)[nf:]
         rho_w = jnp.where(evolving[nf:], rho_w + dt * drho_w, rho_w)
     drho_dt = jnp.concatenate([drho_f, drho_w])
     rho_new = jnp.concatenate([rho_f, rho_w])
     p = jnp.concatenate([p_f, tait_pressure(rho_w, f.rho0, f.c0, gamma)])
-    sums = adami_sums(wp, p_f, rho_f, params.gravity, f.h, w_fn, n) if adami else None
+    sums = adami_sums(wp, p_f, rho_f, params.gravity, f.h, w_fn, config) if adami else None
     p, rho_new = _wall_pressure(p, rho_new, kind, sums, params, config)
 
     antuono = _antuono(config)
