@@ -1043,9 +1043,11 @@ def sec_gpu(doc: Doc):
         return
     for env in envs:
         stem = os.path.basename(env)[: -len("_env.txt")]
-        lines = [ln.strip() for ln in open(env) if ln.strip() and not ln.startswith("##")]
-        doc.p(f"Run `{stem}`: `experiments/gpu_session.sh` (and the `compare_peers.py --scaling` / `bench_sph.py` "
-              "commands in it, rerun alone where a file says so) on one lent machine; its environment: "
+        lines = [ln.strip() for ln in open(env) if ln.strip() and not ln.startswith(("##", "script:"))]
+        script = next((ln.split(":", 1)[1].strip() for ln in open(env) if ln.startswith("script:")),
+                      "experiments/gpu_session.sh")
+        doc.p(f"Run `{stem}`: `{script}` (and the commands in it, rerun alone where a file says so) on one lent "
+              "machine; its environment: "
               + "; ".join(f"`{ln}`" for ln in lines) + ". The code is the checkout the machine was sent (its "
               "`git log` there can lag the working tree it ran). One run each, no other load on the GPU; the "
               "CPU figures beside them are this repository's 2-core records (other files, other days): ratios "
@@ -1057,16 +1059,46 @@ def sec_gpu(doc: Doc):
                 cpu = {(r.get("scheme"), r.get("size")): r for r in load(doc.path("sph_scaling.jsonl"))
                        if "error" not in r}
             rows = [[r["scheme"], r["size"], r["n_fluid"], r["n_wall"], r.get("dtype"), r["steps"], r.get("ms_per_step"),
-                     r["fluid_particle_steps_per_s"], r.get("peak_device_mb"), r.get("compile_s"),
+                     r["fluid_particle_steps_per_s"], r.get("sim_s_per_wall_s", "-"),
+                     r.get("dfsph_iters", "-"), r.get("peak_device_mb"), r.get("compile_s"),
                      (r["fluid_particle_steps_per_s"] / cpu[(r["scheme"], r["size"])]["fluid_particle_steps_per_s"])
                      if (r["scheme"], r["size"]) in cpu else "-"] for r in recs if "error" not in r]
             doc.p("3D dam break (the peers' case, `compare_peers.py --scaling`: 64 steps from the start of the "
-                  "collapse, list rebuilt at least every 32 steps, best of 3). `vs CPU` = the same case's fluid "
-                  "particle-steps/s in `sph_scaling.jsonl` (2 cores).")
+                  "collapse, list rebuilt at least every 32 steps, best of 3). `sim s / wall s`: simulated time per "
+                  "wall second (each scheme at its own time step); `sweeps`: DFSPH's mean pressure sweeps per step. "
+                  "`vs CPU` = the same case's fluid particle-steps/s in `sph_scaling.jsonl` (2 cores).")
             doc.p(table(["scheme", "size", "n_fluid", "n_wall", "dtype", "steps", "ms/step", "fluid p-steps/s",
-                         "peak device MiB", "compile s", "vs CPU"], rows))
+                         "sim s / wall s", "sweeps", "peak device MiB", "compile s", "vs CPU"], rows))
+        recs = _sourced(doc, f"{stem}_profile.jsonl")
+        if recs:
+            doc.p("Where a step's device time goes (`gpu_profile.py --size 1M`: a `jax.profiler` trace of one compiled "
+                  "64-step chunk, kernel times summed per rockjax source line; `?` = kernels with no rockjax frame, "
+                  "mostly `memcpy32_post` copies inside the loop). `wall sums`: `Tuning.wall_sums`. `busy`: summed "
+                  "kernel time / wall time.")
+            tot = [r for r in recs if r["bench"] == "gpu_profile_total"]
+            doc.p(table(["scheme", "wall sums", "n_fluid", "n_wall", "wall ms/step", "kernel ms/step", "busy",
+                         "launches/step", "fluid p-steps/s"],
+                        [[r["scheme"], r.get("wall_sums", "-"), r["n_fluid"], r["n_wall"], r["wall_ms_per_step"],
+                          r["op_ms_per_step"], r["busy_fraction"], r["launches_per_step"],
+                          r["fluid_particle_steps_per_s"]] for r in tot]))
+            lines = [r for r in recs if r["bench"] == "gpu_profile_line" and r["share"] >= 0.02]
+            doc.p(table(["scheme", "wall sums", "source line", "ms/step", "share"],
+                        [[r["scheme"], r.get("wall_sums", "-"), f"`{r['source']}`", r["ms_per_step"],
+                          f"{100 * r['share']:.1f} %"] for r in lines]))
+        for name in ("wall_sums_first", "wall_sums"):
+            recs = _sourced(doc, f"{stem}_{name}.jsonl")
+            if recs:
+                doc.p("The walls' extrapolation sums alone over the real 1M list (`wall_sums_ab.py --size 1M`, best of "
+                      "20 calls, geometry included): row order with `segment_sum` (`WallSums.SCATTER`), wall order "
+                      "with a sorted `segment_sum`, wall order as padded ranges over the walls near the fluid, and "
+                      "rockjax's `WallSums.RANGES` (a segmented scan) where present; `rel diff` = largest difference "
+                      "from the first, relative to its scale (float32).")
+                doc.p(table(["variant", "wall pairs", "walls near fluid", "most pairs per wall", "ms", "rel diff"],
+                            [[r["variant"], r["wall_pairs"], r["walls_near_fluid"], r["max_per_wall"], r["ms"],
+                              r["max_rel_diff"]] for r in recs]))
         recs = _sourced(doc, f"{stem}_sph.jsonl")
-        one_block = any(r.get("row_tile") == 0 for r in recs or [] if r["scheme"] == "wcsph")
+        # the accelerator default is one block since 2026-11-27: only runs with a row-tile record say otherwise
+        one_block = not recs or any(r.get("row_tile") == 0 for r in recs if r["scheme"] == "wcsph")
         if recs:
             doc.p("Where a step's time goes (`bench_sph.py --sizes 80k`): one list build, one step with a given "
                   "list, and a whole chunk per step. `row tile`: the WCSPH pair sums in blocks of that many rows (a "
@@ -1101,8 +1133,8 @@ def sec_gpu(doc: Doc):
         recs = _sourced(doc, f"{stem}_coupled.jsonl")
         if recs:
             doc.p("Coupled step split, sliding wedge (`bench_coupled.py`); issue 7's <= 15 % target is stated for the "
-                  "2-core CPU (table above): on the GPU the water is cheap and the block stages, many small "
-                  "kernels, weigh more" + ("." if one_block else
+                  "2-core CPU (table above), issue 47's for >= 1M water particles on a GPU: on the GPU the water is "
+                  "cheap and the block stages, many small kernels, weigh more at small sizes" + ("." if one_block else
                                            " (and this run's water step still used the CPU's 512-row blocks: 35k rows)."))
             doc.p(table(["coupling", "dx [m]", "n_fluid", "full ms/step", "fluid ms", "blocks ms", "coupling ms",
                          "blocks+coupling %"],
