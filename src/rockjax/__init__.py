@@ -26,7 +26,7 @@ from .sph.schemes import DFSPH, WCSPH, SeedScheme
 from .step import make_step, prime
 from .tuning import Tuning
 from .types import (
-    Adjoint, Capacities, Config, Coupling, GatherForm, CouplingParams, CouplingState, FluidParams, GridSpec, Kind,
+    Adjoint, Capacities, Config, Coupling, GatherForm, WallSums, CouplingParams, CouplingState, FluidParams, GridSpec, Kind,
     NeighbourList, Params, Particles, State, Status,
 )
 
@@ -34,7 +34,7 @@ __all__ = [
     "__version__",
     "Config", "Capacities", "Params", "FluidParams", "State", "Particles", "NeighbourList", "GridSpec",
     "CouplingParams", "CouplingState",
-    "WCSPH", "DFSPH", "SeedScheme", "Sponge", "Tuning", "Adjoint", "GatherForm", "Coupling", "Kind", "Status",
+    "WCSPH", "DFSPH", "SeedScheme", "Sponge", "Tuning", "Adjoint", "GatherForm", "WallSums", "Coupling", "Kind", "Status",
     "make_step", "prime", "make_rollout", "rollout",
     "simulate", "Result", "SimulationError", "Interrupted",
     "Scene", "scenes", "observables", "io", "sph", "blocks", "coupling", "calibrate", "ensembles", "gradcheck",

@@ -186,3 +186,123 @@ def test_row_gather_equals_component_gather_in_a_coupled_step(x64):
         x, y = np.asarray(getattr(b.blocks, name)), np.asarray(getattr(a.blocks, name))
         np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-14, err_msg=f"blocks.{name}")
     assert np.abs(np.asarray(a.blocks.v)).max() > 0, "the wedge must move for the check to mean anything"
+
+
+def _wall_ordered_run(config, params, sc_state, steps=5):
+    """Prime (a list build: with ``WallSums.RANGES`` the flat wall list comes out in wall order) and step."""
+    state = jax.jit(lambda s, p: prime(s, p, config))(sc_state, params)
+    return state, jax.jit(lambda s: _run(config, params, s, steps=steps))(state)
+
+
+def test_order_by_wall_matches_numpy():
+    """``order_by_wall`` sorts the valid pairs by wall (rows ascending within a wall, padding last)
+    and gives each wall's first slot; ``wall_sum`` over it equals ``segment_sum`` over the row order."""
+    from rockjax.sph.neighbours import order_by_wall, wall_sum
+    from rockjax.sph.walls import WallPairs
+
+    rng = np.random.default_rng(3)
+    sc = rj.scenes.dam_break(dx=0.5 / 5, column_height=0.5, tank_length=1.0, tank_width=0.5, column_width=0.4)
+    config = sc.config.tuned(wall_sums=rj.WallSums.RANGES)
+    nf, n, M, count = config.n_fluid, config.n_particles, 64, 50
+    row = np.sort(rng.integers(0, nf, M)).astype(np.int32)
+    col = rng.integers(nf, nf + 7, M).astype(np.int32)  # a few walls, several pairs each
+    row[count:], col[count:] = 0, 0
+    r, c, start = (np.asarray(a) for a in order_by_wall(jnp.asarray(row), jnp.asarray(col), count, config))
+    order = np.argsort(col[:count], kind="stable")
+    np.testing.assert_array_equal(c[:count], col[:count][order])
+    np.testing.assert_array_equal(r[:count], row[:count][order])
+    np.testing.assert_array_equal(start, np.searchsorted(col[:count][order], np.arange(nf, n + 1)))
+    vals = rng.normal(size=(M, 2))
+    vals[count:] = 0.0
+    valid = jnp.arange(M) < count
+    ref = jax.ops.segment_sum(jnp.asarray(vals), jnp.asarray(col), num_segments=n)
+    wp = WallPairs(row=jnp.asarray(r), col=jnp.asarray(c), d=None, r=None, valid=valid, start=jnp.asarray(start))
+    got = wall_sum(jnp.asarray(vals[:count][order].tolist() + vals[count:].tolist()), wp, config)
+    np.testing.assert_allclose(np.asarray(got), np.asarray(ref), rtol=1e-6, atol=1e-6)
+    assert np.abs(np.asarray(ref)[nf:nf + 7]).min() > 0
+
+
+def test_wall_ranges_equal_scatter(primed, x64):
+    """``WallSums.RANGES`` (the accelerators' default: the wall list in wall order, summed onto the
+    walls by a segmented scan) gives the steps of ``WallSums.SCATTER`` (``segment_sum``), float64,
+    for the Adami walls (with and without their no-slip velocity) and dynamic walls."""
+    config, params, state = primed
+    nf = config.n_fluid
+    sc_state = state
+    schemes = [config.scheme]
+    if not config.scheme.walls.dynamic:
+        schemes.append(rj.WCSPH(walls=rj.sph.Adami(no_slip=True)))
+    for scheme in schemes:
+        base = config.replace(scheme=scheme).tuned(wall_sums=rj.WallSums.SCATTER)
+        ranges = base.tuned(wall_sums=rj.WallSums.RANGES)
+        assert ranges.wall_ordered and not base.wall_ordered
+        _, a = _wall_ordered_run(base, params, sc_state)
+        s_r, b = _wall_ordered_run(ranges, params, sc_state)
+        count = int(s_r.nbrs.wall_count)
+        col = np.asarray(s_r.nbrs.wall_col)[:count]
+        assert count > 0 and np.all(np.diff(col) >= 0), "the list must come out in wall order"
+        np.testing.assert_array_equal(np.asarray(s_r.nbrs.wall_start), np.searchsorted(col, np.arange(nf, config.n_particles + 1)))
+        for name in ("x", "v", "rho", "p", "drho_dt"):
+            x, y = np.asarray(getattr(b.particles, name)), np.asarray(getattr(a.particles, name))
+            np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-12 * np.abs(y).max(), err_msg=f"{scheme}: {name}")
+        assert int(b.status) == 0
+    walls = np.asarray(a.particles.drho_dt if config.scheme.walls.dynamic else a.particles.p)[nf:]
+    assert np.abs(walls).max() > 0, "the walls' sums must be non-zero for the check to mean anything"
+
+
+def test_wall_ranges_gradient_equals_scatter(primed, x64):
+    """The reverse mode through the segmented scan (``AUTODIFF``) and through ``PAIR_SUMS``'s wall
+    columns (which sum over the wall list too) equals the scatter form's gradient, float64."""
+    config, params, state = primed
+    if config.scheme.walls.dynamic:
+        pytest.skip("the gradient part runs with the Adami walls only (compile time)")
+
+    def loss(c0, cfg):
+        st = prime(state, params, cfg)
+        p = params.replace(fluid=params.fluid.replace(c0=c0))
+        P = _run(cfg, p, st, steps=3).particles
+        return jnp.sum(P.x[:, 0] ** 2) + 1e-6 * jnp.sum(P.p)
+
+    c0 = params.fluid.c0
+    base = config.tuned(wall_sums=rj.WallSums.SCATTER, adjoint=rj.Adjoint.AUTODIFF)
+    ref = float(jax.jit(jax.grad(lambda c: loss(c, base)))(c0))
+    assert np.isfinite(ref) and ref != 0
+    for adjoint in (rj.Adjoint.AUTODIFF, rj.Adjoint.PAIR_SUMS):
+        cfg = config.tuned(wall_sums=rj.WallSums.RANGES, adjoint=adjoint)
+        g = jax.jit(jax.grad(lambda c: loss(c, cfg)))(c0)
+        np.testing.assert_allclose(float(g), ref, rtol=1e-9, err_msg=adjoint.value)
+
+
+def test_default_wall_sums_are_ranges_on_accelerators_only(monkeypatch):
+    """``WallSums`` resolves by backend: the scatter on the CPU (serial there: 2x faster than the
+    scan), the wall-ordered scan on a GPU (the scatter's atomics were half a 1M step there); an
+    explicit setting wins; schemes that leave the wall list empty (DFSPH without blocks) sort nothing."""
+    c = rj.scenes.dam_break(dx=0.5 / 5, column_height=0.5, tank_length=1.0, tank_width=0.5, column_width=0.4).config
+    d = rj.scenes.dam_break(dx=0.5 / 5, column_height=0.5, tank_length=1.0, tank_width=0.5, column_width=0.4,
+                            scheme=rj.DFSPH()).config
+    assert c.tuning.wall_sums is None and not c.wall_ordered  # here: the CPU
+    assert c.tuned(wall_sums=rj.WallSums.RANGES).wall_ordered
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    assert c.wall_ordered and not d.wall_ordered
+    assert not c.tuned(wall_sums=rj.WallSums.SCATTER).wall_ordered
+    with pytest.raises(ValueError, match="wall_sums"):
+        rj.Tuning(wall_sums="ranges")
+
+
+def test_wall_ranges_in_a_coupled_step(x64):
+    """With boundary particles the block sub-list is cut from the wall list: in wall order it gives
+    the same coupled steps (water and blocks) as the row order, float64."""
+    sc = rj.scenes.sliding_wedge(dx=0.05, slope_angle_deg=40.0, block_length=0.2, block_width=0.2, water_depth=0.2,
+                                 flat_length=0.4, flume_width=0.4, start_distance=0.0,
+                                 coupling=rj.Coupling.BOUNDARY_PARTICLES)
+    base = sc.config.tuned(wall_sums=rj.WallSums.SCATTER)
+    ranges = sc.config.tuned(wall_sums=rj.WallSums.RANGES)
+    _, a = _wall_ordered_run(base, sc.params, sc.state, steps=4)
+    _, b = _wall_ordered_run(ranges, sc.params, sc.state, steps=4)
+    for name in ("x", "v", "rho", "p"):
+        x, y = np.asarray(getattr(b.particles, name)), np.asarray(getattr(a.particles, name))
+        np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-12 * np.abs(y).max(), err_msg=name)
+    for name in ("x", "v", "omega"):
+        x, y = np.asarray(getattr(b.blocks, name)), np.asarray(getattr(a.blocks, name))
+        np.testing.assert_allclose(x, y, rtol=1e-11, atol=1e-13, err_msg=f"blocks.{name}")
+    assert np.abs(np.asarray(a.blocks.v)).max() > 0, "the wedge must move for the check to mean anything"
