@@ -60,7 +60,15 @@ def refresh(state: State, config: Config) -> State:
 def max_displacement2(x, x_ref, active, config: Config) -> jax.Array:
     """The largest squared distance [m^2] of an ``active`` particle at ``x`` [N, 3] from its list
     build position ``x_ref`` (nearest image on periodic axes): the list holds while it stays
-    below ``(skin / 2)^2`` (``check``, ``rollout.needs_rebuild``)."""
+    below ``(skin / 2)^2`` (``check``, ``rollout.needs_rebuild``).
+
+    The fixed walls ``[n_fluid, n_particles - n_block_particles)`` never move (the list build keeps
+    them sorted on that ground) and are skipped: in a tank they outnumber the water several times,
+    and this runs every step."""
+    nf, nb, n = config.n_fluid, config.n_block_particles, config.n_particles
+    if x.shape[0] == n and n - nb > nf:
+        moving = lambda a: jnp.concatenate([a[:nf], a[n - nb:]])  # noqa: E731
+        x, x_ref, active = moving(x), moving(x_ref), moving(active)
     g = config.grid
     disp = x - x_ref
     if any(g.periodic):
