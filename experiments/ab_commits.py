@@ -50,6 +50,8 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--metric", default="block_steps_per_s", help="record field to compare (higher is better)")
     ap.add_argument("--by", nargs="*", default=["bench", "n_blocks"], help="record fields that group the summary")
+    ap.add_argument("--where", nargs="*", default=[], metavar="KEY=VALUE",
+                    help="summarize only records with these fields (e.g. code=rockjax: compare_peers also prints peers)")
     ap.add_argument("--worktrees", default="/tmp/rockjax_ab")
     ap.add_argument("--out", default=None)
     ap.add_argument("--summarize", default=None, metavar="FILE",
@@ -57,11 +59,13 @@ def main(argv=None):
     ap.add_argument("script", nargs=argparse.REMAINDER, help="-- SCRIPT [ARGS...], run with the commit's src first on PYTHONPATH")
     a = ap.parse_args(argv)
     script = a.script[1:] if a.script[:1] == ["--"] else a.script
+    where = dict(w.split("=", 1) for w in a.where)
+    kept = lambda rec: all(str(rec.get(k)) == v for k, v in where.items())  # noqa: E731
     if a.summarize:
         runs: dict = {}
         for line in open(a.summarize):
             rec = json.loads(line)
-            if rec.get("bench") != "ab_commits" and a.metric in rec and rec.get("commit_arg") in a.commits:
+            if rec.get("bench") != "ab_commits" and a.metric in rec and rec.get("commit_arg") in a.commits and kept(rec):
                 runs.setdefault(tuple(rec.get(k) for k in a.by), {}).setdefault(rec["commit_arg"], []).append(
                     float(rec[a.metric]))
         _summary(a, runs, dict(date=time.strftime("%Y-%m-%d"), cmd="experiments/ab_commits.py "
@@ -87,7 +91,7 @@ def main(argv=None):
                     continue
                 emit(dict(rec, commit=sha[:12], commit_arg=name, round=rnd, **stamp,
                           load_avg_1m_at_save=os.getloadavg()[0]), a.out)
-                if a.metric in rec:
+                if a.metric in rec and kept(rec):
                     runs.setdefault(tuple(rec.get(k) for k in a.by), {}).setdefault(name, []).append(float(rec[a.metric]))
     _summary(a, runs, stamp)
 

@@ -114,14 +114,18 @@ def device_events(trace: dict) -> tuple[list, str]:
 
 
 def profile(size: str, scheme: str, *, runs: int, trace_runs: int, top: int, blocks: int,
-            wall_sums: str | None = None) -> list[dict]:
+            wall_sums: str | None = None, hlo_out: str | None = None) -> list[dict]:
     import jax
 
     from rockjax.tuning import WallSums
 
     c = compiled_chunk(size, scheme, blocks=blocks, tuning={"wall_sums": WallSums(wall_sums)} if wall_sums else None)
     chunk, state, params, steps = c["chunk"], c["state"], c["params"], c["steps"]
-    sources = hlo_sources(chunk.as_text())
+    text = chunk.as_text()
+    sources = hlo_sources(text)
+    if hlo_out:  # the compiled module, to read the kernels no rockjax frame names (gzip text)
+        with gzip.open(hlo_out, "wt") as fp:
+            fp.write(text)
     jax.block_until_ready(chunk(state, params))
     walls = []
     for _ in range(runs):  # untraced wall time, best of runs
@@ -182,13 +186,16 @@ def main(argv=None):
     ap.add_argument("--blocks", type=int, default=2, help="rebuild periods per chunk")
     ap.add_argument("--top", type=int, default=25, help="largest instructions / source lines kept")
     ap.add_argument("--wall-sums", nargs="+", default=[None], help="Tuning.wall_sums values (scatter, ranges); default: the backend's")
+    ap.add_argument("--hlo-out", default=None,
+                    help="write the compiled module's text here (gzip; {size} {scheme} {wall_sums} filled in)")
     ap.add_argument("--out", default=None, help="append JSON lines here too")
     a = ap.parse_args(argv)
     for size in a.size:
         for scheme in a.scheme:
             for ws in a.wall_sums:
+                hlo = a.hlo_out.format(size=size, scheme=scheme, wall_sums=ws or "default") if a.hlo_out else None
                 for r in profile(size, scheme, runs=a.runs, trace_runs=a.trace_runs, top=a.top, blocks=a.blocks,
-                                 wall_sums=ws):
+                                 wall_sums=ws, hlo_out=hlo):
                     emit(r, a.out)
 
 

@@ -1052,7 +1052,7 @@ def sec_gpu(doc: Doc):
               "`git log` there can lag the working tree it ran). One run each, no other load on the GPU; the "
               "CPU figures beside them are this repository's 2-core records (other files, other days): ratios "
               "across machines, not a benchmark of the same code path on both.")
-        recs = _sourced(doc, f"{stem}_scaling.jsonl")
+        recs = _sourced(doc, f"{stem}_scaling.jsonl") + _sourced(doc, f"{stem}_scaling64.jsonl")
         if recs:
             cpu = {}
             if doc.path("sph_scaling.jsonl"):
