@@ -12,6 +12,7 @@ step). Also the shares grouped by source line (``gpu_profile_line``).
 
     python experiments/gpu_profile.py --size 1M --scheme wcsph          # on the device machine
     python experiments/gpu_profile.py --size 5k --scheme wcsph --top 10 # a dry run on the CPU
+    python experiments/gpu_profile.py --grad 0.0125                     # the gradient's profile
 """
 
 from __future__ import annotations
@@ -113,30 +114,30 @@ def device_events(trace: dict) -> tuple[list, str]:
     return host, "host hlo_op events"
 
 
-def profile(size: str, scheme: str, *, runs: int, trace_runs: int, top: int, blocks: int,
-            wall_sums: str | None = None, hlo_out: str | None = None) -> list[dict]:
+def summarize(fn, args, *, steps: int, n_fluid: int, base: dict, runs: int, trace_runs: int, top: int,
+              hlo_out: str | None = None) -> list[dict]:
+    """Time the compiled ``fn(*args)`` (best of ``runs``), trace ``trace_runs`` more calls, and sum
+    the trace's device events per instruction and per rockjax source line, per step of ``steps``.
+    Records: ``gpu_profile_total``, the largest ``top`` ``gpu_profile_op`` and ``gpu_profile_line``,
+    each with ``base``'s fields."""
     import jax
 
-    from rockjax.tuning import WallSums
-
-    c = compiled_chunk(size, scheme, blocks=blocks, tuning={"wall_sums": WallSums(wall_sums)} if wall_sums else None)
-    chunk, state, params, steps = c["chunk"], c["state"], c["params"], c["steps"]
-    text = chunk.as_text()
+    text = fn.as_text()
     sources = hlo_sources(text)
     if hlo_out:  # the compiled module, to read the kernels no rockjax frame names (gzip text)
         with gzip.open(hlo_out, "wt") as fp:
             fp.write(text)
-    jax.block_until_ready(chunk(state, params))
+    jax.block_until_ready(fn(*args))
     walls = []
     for _ in range(runs):  # untraced wall time, best of runs
         t0 = time.perf_counter()
-        jax.block_until_ready(chunk(state, params))
+        jax.block_until_ready(fn(*args))
         walls.append(time.perf_counter() - t0)
     d = tempfile.mkdtemp(prefix="rj_trace_")
     try:
         jax.profiler.start_trace(d, create_perfetto_trace=True)
         for _ in range(trace_runs):
-            jax.block_until_ready(chunk(state, params))
+            jax.block_until_ready(fn(*args))
         jax.profiler.stop_trace()
         path = sorted(glob.glob(os.path.join(d, "**", "perfetto_trace.json.gz"), recursive=True))[-1]
         with gzip.open(path) as fp:
@@ -150,15 +151,13 @@ def profile(size: str, scheme: str, *, runs: int, trace_runs: int, top: int, blo
         per[name][1] += 1
     n = trace_runs * steps
     total_us = sum(v[0] for v in per.values())
-    base = {"size": size, "scheme": scheme, "n_fluid": c["counts"]["fluid"], "n_wall": c["counts"]["wall"],
-            "steps": steps, "rebuild_period": c["period"], "K": c["config"].neighbour_capacity,
-            "dtype": str(state.particles.x.dtype), "backend": jax.default_backend(), "events_from": where,
-            "wall_sums": c["config"].tuning.wall_sums_form().value}
+    base = dict(base, steps=steps, n_fluid=n_fluid, backend=jax.default_backend(), events_from=where)
     wall_ms = 1e3 * min(walls) / steps
     recs = [dict(base, bench="gpu_profile_total", wall_ms_per_step=round(wall_ms, 4),
                  op_ms_per_step=round(total_us / 1e3 / n, 4), busy_fraction=round(total_us / 1e3 / n / wall_ms, 3),
                  distinct_ops=len(per), launches_per_step=round(sum(v[1] for v in per.values()) / n, 1),
-                 fluid_particle_steps_per_s=round(c["counts"]["fluid"] / (wall_ms / 1e3), 1))]
+                 fluid_particle_steps_per_s=round(n_fluid / (wall_ms / 1e3), 1))]
+
     def source(name):  # a GPU kernel is named after its instruction with '_' for the last '.'
         hit = sources.get(name) or sources.get(re.sub(r"_(\d+)$", r".\1", name))
         return hit or ("", "?")
@@ -177,6 +176,52 @@ def profile(size: str, scheme: str, *, runs: int, trace_runs: int, top: int, blo
     return recs
 
 
+def profile(size: str, scheme: str, *, runs: int, trace_runs: int, top: int, blocks: int,
+            wall_sums: str | None = None, hlo_out: str | None = None) -> list[dict]:
+    """``summarize`` one compiled chunk of the peers' dam break of ``size`` (``compiled_chunk``)."""
+    from rockjax.tuning import WallSums
+
+    c = compiled_chunk(size, scheme, blocks=blocks, tuning={"wall_sums": WallSums(wall_sums)} if wall_sums else None)
+    cfg, state = c["config"], c["state"]
+    base = {"size": size, "scheme": scheme, "n_wall": c["counts"]["wall"], "rebuild_period": c["period"],
+            "K": cfg.neighbour_capacity, "dtype": str(state.particles.x.dtype),
+            "wall_sums": cfg.tuning.wall_sums_form().value}
+    return summarize(c["chunk"], (state, c["params"]), steps=c["steps"], n_fluid=c["counts"]["fluid"], base=base,
+                     runs=runs, trace_runs=trace_runs, top=top, hlo_out=hlo_out)
+
+
+def profile_grad(dx: float, *, steps: int | None, runs: int, trace_runs: int, top: int,
+                 hlo_out: str | None = None) -> list[dict]:
+    """``summarize`` the forward and the checkpointed ``value_and_grad`` of ``bench_grad``'s dam
+    scene at ``dx`` over ``steps`` steps (default two list periods): where the gradient's extra
+    time goes (issue 47's target: gradient / forward <= 4.5)."""
+    import jax
+
+    from bench_grad import build, objective
+    from rockjax.calibrate import observed
+    from rockjax.step import prime
+
+    scene = build("dam", dx)
+    config, params = scene.config, scene.params
+    n = steps or 2 * config.rebuild_every
+    obj = objective(scene)
+    state0 = jax.jit(prime, static_argnums=2)(scene.state, params, config)
+
+    def run(p, ck):
+        return obj(observed(config, p, n, None, state=state0, checkpoint=ck, prime=False)[0], p)
+
+    base = {"scene": f"dam dx {dx}", "scheme": config.scheme.name, "n_wall": config.n_wall,
+            "dtype": str(state0.particles.x.dtype), "adjoint": config.effective_adjoint.value,
+            "gather": config.effective_gather.value, "wall_sums": config.tuning.wall_sums_form().value}
+    recs = []
+    for what, f in (("forward", lambda p: run(p, False)), ("grad_checkpointed", jax.value_and_grad(lambda p: run(p, True)))):
+        compiled = jax.jit(f).lower(params).compile()
+        hlo = hlo_out.format(size=f"dx{dx}", scheme=what, wall_sums="default") if hlo_out else None
+        recs += summarize(compiled, (params,), steps=n, n_fluid=config.n_fluid, base=dict(base, program=what),
+                          runs=runs, trace_runs=trace_runs, top=top, hlo_out=hlo)
+    return recs
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", nargs="+", default=["1M"], help="dam-break sizes (compare_peers.NX)")
@@ -188,8 +233,16 @@ def main(argv=None):
     ap.add_argument("--wall-sums", nargs="+", default=[None], help="Tuning.wall_sums values (scatter, ranges); default: the backend's")
     ap.add_argument("--hlo-out", default=None,
                     help="write the compiled module's text here (gzip; {size} {scheme} {wall_sums} filled in)")
+    ap.add_argument("--grad", type=float, default=None, metavar="DX",
+                    help="instead: the forward and checkpointed gradient of bench_grad's dam scene at this dx")
+    ap.add_argument("--grad-steps", type=int, default=None, help="steps of --grad (default two list periods)")
     ap.add_argument("--out", default=None, help="append JSON lines here too")
     a = ap.parse_args(argv)
+    if a.grad:
+        for r in profile_grad(a.grad, steps=a.grad_steps, runs=a.runs, trace_runs=a.trace_runs, top=a.top,
+                              hlo_out=a.hlo_out):
+            emit(r, a.out)
+        return
     for size in a.size:
         for scheme in a.scheme:
             for ws in a.wall_sums:

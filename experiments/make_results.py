@@ -1076,14 +1076,15 @@ def sec_gpu(doc: Doc):
                   "mostly `memcpy32_post` copies inside the loop). `wall sums`: `Tuning.wall_sums`. `busy`: summed "
                   "kernel time / wall time.")
             tot = [r for r in recs if r["bench"] == "gpu_profile_total"]
-            doc.p(table(["scheme", "wall sums", "n_fluid", "n_wall", "wall ms/step", "kernel ms/step", "busy",
+            prog = lambda r: r.get("program", "step chunk")  # noqa: E731  (--grad: forward / gradient)
+            doc.p(table(["scheme", "program", "wall sums", "n_fluid", "n_wall", "wall ms/step", "kernel ms/step", "busy",
                          "launches/step", "fluid p-steps/s"],
-                        [[r["scheme"], r.get("wall_sums", "-"), r["n_fluid"], r["n_wall"], r["wall_ms_per_step"],
+                        [[r["scheme"], prog(r), r.get("wall_sums", "-"), r["n_fluid"], r["n_wall"], r["wall_ms_per_step"],
                           r["op_ms_per_step"], r["busy_fraction"], r["launches_per_step"],
                           r["fluid_particle_steps_per_s"]] for r in tot]))
             lines = [r for r in recs if r["bench"] == "gpu_profile_line" and r["share"] >= 0.02]
-            doc.p(table(["scheme", "wall sums", "source line", "ms/step", "share"],
-                        [[r["scheme"], r.get("wall_sums", "-"), f"`{r['source']}`", r["ms_per_step"],
+            doc.p(table(["scheme", "program", "wall sums", "source line", "ms/step", "share"],
+                        [[r["scheme"], prog(r), r.get("wall_sums", "-"), f"`{r['source']}`", r["ms_per_step"],
                           f"{100 * r['share']:.1f} %"] for r in lines]))
         for name in ("wall_sums_first", "wall_sums"):
             recs = _sourced(doc, f"{stem}_{name}.jsonl")
