@@ -191,7 +191,7 @@ def profile(size: str, scheme: str, *, runs: int, trace_runs: int, top: int, blo
 
 
 def profile_grad(dx: float, *, steps: int | None, runs: int, trace_runs: int, top: int,
-                 hlo_out: str | None = None) -> list[dict]:
+                 hlo_out: str | None = None, adjoint: str | None = None) -> list[dict]:
     """``summarize`` the forward and the checkpointed ``value_and_grad`` of ``bench_grad``'s dam
     scene at ``dx`` over ``steps`` steps (default two list periods): where the gradient's extra
     time goes (issue 47's target: gradient / forward <= 4.5)."""
@@ -201,8 +201,12 @@ def profile_grad(dx: float, *, steps: int | None, runs: int, trace_runs: int, to
     from rockjax.calibrate import observed
     from rockjax.step import prime
 
+    from rockjax.tuning import Adjoint
+
     scene = build("dam", dx)
     config, params = scene.config, scene.params
+    if adjoint:  # PAIR_SUMS with its reverse pass in one block (the accelerators' forward is one block)
+        config = config.tuned(adjoint=Adjoint(adjoint), **({"backward_tile": 0} if adjoint == "pair_sums" else {}))
     n = steps or 2 * config.rebuild_every
     obj = objective(scene)
     state0 = jax.jit(prime, static_argnums=2)(scene.state, params, config)
@@ -216,7 +220,7 @@ def profile_grad(dx: float, *, steps: int | None, runs: int, trace_runs: int, to
     recs = []
     for what, f in (("forward", lambda p: run(p, False)), ("grad_checkpointed", jax.value_and_grad(lambda p: run(p, True)))):
         compiled = jax.jit(f).lower(params).compile()
-        hlo = hlo_out.format(size=f"dx{dx}", scheme=what, wall_sums="default") if hlo_out else None
+        hlo = hlo_out.format(size=f"dx{dx}", scheme=f"{what}_{adjoint or 'default'}", wall_sums="default") if hlo_out else None
         recs += summarize(compiled, (params,), steps=n, n_fluid=config.n_fluid, base=dict(base, program=what),
                           runs=runs, trace_runs=trace_runs, top=top, hlo_out=hlo)
     return recs
@@ -236,12 +240,15 @@ def main(argv=None):
     ap.add_argument("--grad", type=float, default=None, metavar="DX",
                     help="instead: the forward and checkpointed gradient of bench_grad's dam scene at this dx")
     ap.add_argument("--grad-steps", type=int, default=None, help="steps of --grad (default two list periods)")
+    ap.add_argument("--grad-adjoint", nargs="+", default=[None],
+                    help="Tuning.adjoint values for --grad (autodiff, pair_sums: its reverse in one block)")
     ap.add_argument("--out", default=None, help="append JSON lines here too")
     a = ap.parse_args(argv)
     if a.grad:
-        for r in profile_grad(a.grad, steps=a.grad_steps, runs=a.runs, trace_runs=a.trace_runs, top=a.top,
-                              hlo_out=a.hlo_out):
-            emit(r, a.out)
+        for adj in a.grad_adjoint:
+            for r in profile_grad(a.grad, steps=a.grad_steps, runs=a.runs, trace_runs=a.trace_runs, top=a.top,
+                                  hlo_out=a.hlo_out, adjoint=adj):
+                emit(r, a.out)
         return
     for size in a.size:
         for scheme in a.scheme:

@@ -11,7 +11,9 @@
 #    with the compiled modules (hlo_*.txt.gz) to read the kernels no rockjax frame names (2026-11-30:
 #    36 memcpy32_post copies per step, 1.05 of the WCSPH step's 4.33 ms); then the same of the
 #    forward and the checkpointed gradient of bench_grad's dam scene at 23k water (issue 47: the
-#    gradient <= 4.5 forwards; 7.3 with row gathers on 2026-11-28: where the rest goes);
+#    gradient <= 4.5 forwards; 7.3 with row gathers on 2026-11-28: where the rest goes), under
+#    AUTODIFF (JAX transposes the gathers: scatter-adds) and PAIR_SUMS with its reverse pass in one
+#    block (gathers over the symmetric list; never measured on a GPU in one block);
 # 2. the coupled wedge at >= 1M water particles (bench_coupled --dx 0.0065: 1.0M water, 0.4M wall):
 #    the blocks + coupling share, whose target is stated at that size (35k measured 2026-11-28: 33 %);
 # 3. fluid-only throughput and device memory, 3D dam break, 80k -> 1M, WCSPH (compare_peers
@@ -43,7 +45,7 @@ run() {  # name limit cmd...
   { echo "## $name"; tail -c 3000 /tmp/gpu_session_$name.err; } | tee -a $OUT/errors.txt | tail -c 800
 }
 run profile $T0 bash -c "$PY experiments/gpu_profile.py --size $PSIZE --scheme wcsph dfsph --top 30 \
-  --hlo-out '$OUT/hlo_{scheme}.txt.gz'; $PY experiments/gpu_profile.py --grad $GDX --top 30"
+  --hlo-out '$OUT/hlo_{scheme}.txt.gz'; $PY experiments/gpu_profile.py --grad $GDX --grad-adjoint autodiff pair_sums --top 30"
 run coupled $T1 $PY experiments/bench_coupled.py --dx $CDX --reps 5
 run scaling $T2 $PY experiments/compare_peers.py --scaling --sizes $SIZES --schemes wcsph --reps 3
 run scaling64 $T3 env JAX_ENABLE_X64=1 $PY experiments/compare_peers.py --scaling --sizes $PSIZE --schemes wcsph --reps 3

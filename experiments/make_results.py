@@ -1076,7 +1076,7 @@ def sec_gpu(doc: Doc):
                   "mostly `memcpy32_post` copies inside the loop). `wall sums`: `Tuning.wall_sums`. `busy`: summed "
                   "kernel time / wall time.")
             tot = [r for r in recs if r["bench"] == "gpu_profile_total"]
-            prog = lambda r: r.get("program", "step chunk")  # noqa: E731  (--grad: forward / gradient)
+            prog = lambda r: (r.get("program", "step chunk") + (f" ({r['adjoint']})" if r.get("program") else ""))  # noqa: E731
             doc.p(table(["scheme", "program", "wall sums", "n_fluid", "n_wall", "wall ms/step", "kernel ms/step", "busy",
                          "launches/step", "fluid p-steps/s"],
                         [[r["scheme"], prog(r), r.get("wall_sums", "-"), r["n_fluid"], r["n_wall"], r["wall_ms_per_step"],
