@@ -153,8 +153,8 @@ class Adami(WallModel):
         if not self.no_slip:
             return v
         w = jnp.where(wp.valid, config.scheme.kernel.w(wp.r, params.fluid.h), 0.0)
-        both = wall_sum(jnp.concatenate([w[:, None] * take(v, wp.row), w[:, None]], axis=1), wp, config)
-        num, den = both[:, :3], both[:, 3]
+        num = wall_sum(w[:, None] * take(v, wp.row), wp, config)
+        den = wall_sum(w, wp, config)
         v_fluid = jnp.where((den > 0)[:, None], num / jnp.where(den > 0, den, 1.0)[:, None], v)
         return jnp.where((kind == Kind.WALL)[:, None], 2.0 * v - v_fluid, v)
 
