@@ -167,6 +167,17 @@ def test_default_gather_is_rows_on_accelerators_only(monkeypatch):
     assert c.tuned(gather=rj.GatherForm.COMPONENTS).effective_gather == rj.GatherForm.COMPONENTS
 
 
+def _assert_same_coupled(a, b, *, block_rtol, block_atol):
+    """Two coupled states agree: water to 1e-12, blocks to the given tolerances; the wedge moved."""
+    for name in ("x", "v", "rho", "p"):
+        x, y = np.asarray(getattr(b.particles, name)), np.asarray(getattr(a.particles, name))
+        np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-12 * np.abs(y).max(), err_msg=name)
+    for name in ("x", "v", "omega"):
+        x, y = np.asarray(getattr(b.blocks, name)), np.asarray(getattr(a.blocks, name))
+        np.testing.assert_allclose(x, y, rtol=block_rtol, atol=block_atol, err_msg=f"blocks.{name}")
+    assert np.abs(np.asarray(a.blocks.v)).max() > 0, "the wedge must move for the check to mean anything"
+
+
 def test_row_gather_equals_component_gather_in_a_coupled_step(x64):
     """The accelerators' default ``GatherForm.ROWS`` gives the same coupled steps as the CPU's 1-D
     gathers (float64): a small wedge sliding into water with boundary particles, whose block
@@ -179,13 +190,7 @@ def test_row_gather_equals_component_gather_in_a_coupled_step(x64):
     state = jax.jit(lambda s, p: prime(s, p, config))(sc.state, sc.params)
     a = jax.jit(lambda s: _run(config, sc.params, s, steps=4))(state)
     b = jax.jit(lambda s: _run(rows, sc.params, s, steps=4))(state)
-    for name in ("x", "v", "rho", "p"):
-        x, y = np.asarray(getattr(b.particles, name)), np.asarray(getattr(a.particles, name))
-        np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-12 * np.abs(y).max(), err_msg=name)
-    for name in ("x", "v", "omega"):
-        x, y = np.asarray(getattr(b.blocks, name)), np.asarray(getattr(a.blocks, name))
-        np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-14, err_msg=f"blocks.{name}")
-    assert np.abs(np.asarray(a.blocks.v)).max() > 0, "the wedge must move for the check to mean anything"
+    _assert_same_coupled(a, b, block_rtol=1e-12, block_atol=1e-14)
 
 
 def _wall_ordered_run(config, params, sc_state, steps=5):
@@ -228,7 +233,6 @@ def test_wall_ranges_equal_scatter(primed, x64):
     for the Adami walls (with and without their no-slip velocity) and dynamic walls."""
     config, params, state = primed
     nf = config.n_fluid
-    sc_state = state
     schemes = [config.scheme]
     if not config.scheme.walls.dynamic:
         schemes.append(rj.WCSPH(walls=rj.sph.Adami(no_slip=True)))
@@ -236,8 +240,8 @@ def test_wall_ranges_equal_scatter(primed, x64):
         base = config.replace(scheme=scheme).tuned(wall_sums=rj.WallSums.SCATTER)
         ranges = base.tuned(wall_sums=rj.WallSums.RANGES)
         assert ranges.wall_ordered and not base.wall_ordered
-        _, a = _wall_ordered_run(base, params, sc_state)
-        s_r, b = _wall_ordered_run(ranges, params, sc_state)
+        _, a = _wall_ordered_run(base, params, state)
+        s_r, b = _wall_ordered_run(ranges, params, state)
         count = int(s_r.nbrs.wall_count)
         col = np.asarray(s_r.nbrs.wall_col)[:count]
         assert count > 0 and np.all(np.diff(col) >= 0), "the list must come out in wall order"
@@ -299,10 +303,4 @@ def test_wall_ranges_in_a_coupled_step(x64):
     ranges = sc.config.tuned(wall_sums=rj.WallSums.RANGES)
     _, a = _wall_ordered_run(base, sc.params, sc.state, steps=4)
     _, b = _wall_ordered_run(ranges, sc.params, sc.state, steps=4)
-    for name in ("x", "v", "rho", "p"):
-        x, y = np.asarray(getattr(b.particles, name)), np.asarray(getattr(a.particles, name))
-        np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-12 * np.abs(y).max(), err_msg=name)
-    for name in ("x", "v", "omega"):
-        x, y = np.asarray(getattr(b.blocks, name)), np.asarray(getattr(a.blocks, name))
-        np.testing.assert_allclose(x, y, rtol=1e-11, atol=1e-13, err_msg=f"blocks.{name}")
-    assert np.abs(np.asarray(a.blocks.v)).max() > 0, "the wedge must move for the check to mean anything"
+    _assert_same_coupled(a, b, block_rtol=1e-11, block_atol=1e-13)
