@@ -46,7 +46,7 @@ from rockjax.calibrate import get_leaf, observed, set_leaf, smooth_config  # noq
 from rockjax.coupling import penalty  # noqa: E402
 from rockjax.gradcheck import classify  # noqa: E402
 from rockjax.observables import gauge_elevation, runup_kwargs, smooth_runup  # noqa: E402
-from rockjax.sph import Laminar  # noqa: E402
+from rockjax.sph import Artificial, Laminar  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
 from jsonl_out import emit  # noqa: E402
@@ -67,14 +67,17 @@ def variant(scene, name: str):
     (``Penalty(onset=0.5, face_blend=0.1)``), ``wideblend`` (``face_blend=0.5``), ``jwfade``
     (``joint_fade_points``),
     ``nojw`` (joint water off), ``laminar`` (``sph.Laminar`` viscosity, no approach switch, with
-    ``laminar_params``), ``rebuild1`` (lists rebuilt at every step, observed every step);
+    ``laminar_params``), ``smoothav`` (Monaghan's approach switch smoothed over |mu| < 0.001 c0),
+    ``softfloor`` (the Adami walls' pressure floor rounded over 0.1 rho0 g dx), ``rebuild1`` (lists
+    rebuilt at every step, observed every step);
     ``smooth`` may be a part too (``smooth+nojw``)."""
     cfg = scene.config
     parts = set() if name == "sharp" else set(name.split("+"))
     if "smooth" in parts:
         cfg = smooth_config(cfg)
         parts.discard("smooth")
-    unknown = parts - {"law", "widelaw", "coupling", "wideblend", "jwfade", "nojw", "rebuild1", "laminar"}
+    unknown = parts - {"law", "widelaw", "coupling", "wideblend", "jwfade", "nojw", "rebuild1", "laminar", "smoothav",
+                       "softfloor"}
     if unknown:
         raise ValueError(f"variant {name!r}: unknown parts {sorted(unknown)}")
     blocks = cfg.blocks
@@ -88,6 +91,11 @@ def variant(scene, name: str):
         blocks = dataclasses.replace(blocks, joint_water=False)
     if "laminar" in parts:  # no approach switch: Laminar viscosity instead of Monaghan's (params: laminar_params)
         cfg = cfg.replace(scheme=dataclasses.replace(cfg.scheme, viscosity=Laminar()))
+    if "smoothav" in parts:  # Monaghan's approach switch over |mu| < 0.001 c0 (sph.Artificial.approach_band)
+        cfg = cfg.replace(scheme=dataclasses.replace(cfg.scheme, viscosity=Artificial(approach_band=1e-3)))
+    if "softfloor" in parts:  # the walls' pressure floor rounded over 0.1 rho0 g dx (sph.Adami.floor_band)
+        band = 0.1 * 1000.0 * 9.81 * float(scene.meta.dx)
+        cfg = cfg.replace(scheme=dataclasses.replace(cfg.scheme, walls=dataclasses.replace(cfg.scheme.walls, floor_band=band)))
     if "rebuild1" in parts:  # neighbour lists rebuilt before every step (another summation order)
         cfg = cfg.replace(rebuild_every=1)
     cpl = penalty.Penalty(onset=0.5, face_blend=0.1) if "coupling" in parts else cfg.coupling

@@ -76,3 +76,71 @@ def test_viscous_dt_limit_follows_the_term():
     assert rj.WCSPH().stable_dt(p, cfl=0.25) > 0.125 * h * h / 1.0
     for v in (rj.sph.Laminar(), rj.sph.LaminarSPS()):
         assert rj.WCSPH(viscosity=v).stable_dt(p, cfl=0.25) == pytest.approx(0.125 * h * h / 1.0)
+
+
+def _sharp_pi(mu, c0=10.0, alpha=0.1, rho=1000.0):
+    return np.where(mu < 0, -2.0 * alpha * c0 * mu / (2 * rho), 0.0)
+
+
+def test_artificial_approach_band_closed_form(x64):
+    """``Artificial(approach_band=b)``: Monaghan's Pi exactly beyond |mu| >= b c0, half of it at
+    mu = 0, continuous with a continuous slope across the band's edges (the sharp switch's slope
+    jumps from the approaching value to 0 at mu = 0)."""
+    import jax.numpy as jnp
+
+    c0, alpha, rho, h = 10.0, 0.1, 1000.0, 0.013
+    params = rj.scenes.dam_break(dx=0.1, column_length=0.4, column_width=0.4, column_height=0.4,
+                                 tank_length=0.8, tank_width=0.4).params
+    params = params.replace(fluid=params.fluid.replace(c0=c0, alpha=alpha, h=h, rho0=rho))
+    band = 0.01
+
+    def pi_of(term, mu):
+        # a pair along x at r = h: vr = v r, mu = h vr / (r^2 + 0.01 h^2)
+        r = h
+        vr = mu * (r * r + 0.01 * h * h) / h
+        v = vr / r
+        q, _, _ = term.pair(1.0, jnp.asarray(rho), jnp.asarray(rho), (jnp.asarray(v), 0.0, 0.0), (jnp.asarray(r), 0.0, 0.0),
+                            jnp.asarray(r * r), None, jnp.asarray(True), params, {}, {})
+        return float(q)
+
+    smooth, sharp = rj.sph.Artificial(approach_band=band), rj.sph.Artificial()
+    w = band * c0
+    for mu in (-3 * w, -1.0001 * w, 1.0001 * w, 2 * w):  # beyond the band: Monaghan's
+        assert pi_of(smooth, mu) == pytest.approx(float(_sharp_pi(mu, c0, alpha, rho)), rel=1e-12, abs=1e-15)
+        assert pi_of(sharp, mu) == pytest.approx(float(_sharp_pi(mu, c0, alpha, rho)), rel=1e-12, abs=1e-15)
+    slope = -2.0 * alpha * c0 / (2 * rho)  # dPi/dmu of an approaching pair
+    # inside: Pi = S(u) slope mu, u = (1 - mu / w) / 2, S the cubic smoothstep
+    for mu in (-0.5 * w, 0.0, 0.3 * w):
+        u = 0.5 - 0.5 * mu / w
+        assert pi_of(smooth, mu) == pytest.approx(u * u * (3 - 2 * u) * slope * mu, rel=1e-12, abs=1e-18)
+    # the slope: continuous at the edges and at 0 (half the approaching slope there)
+    e = 1e-6 * w
+    d = lambda term, m: (pi_of(term, m + e) - pi_of(term, m - e)) / (2 * e)  # noqa: E731
+    assert d(smooth, 0.0) == pytest.approx(0.5 * slope, rel=1e-6)
+    assert d(smooth, -w) == pytest.approx(slope, rel=1e-4)
+    assert abs(d(smooth, w)) < 1e-4 * abs(slope)
+    left, right = (pi_of(sharp, 0.0) - pi_of(sharp, -e)) / e, (pi_of(sharp, e) - pi_of(sharp, 0.0)) / e
+    assert left == pytest.approx(slope, rel=1e-9) and right == 0.0  # the kink the band removes
+
+
+def test_adami_floor_band_closed_form(x64):
+    """``smooth_max0(x, w)`` (``Adami(floor_band=w)``): max(x, 0) exactly beyond |x| >= w, 3 w / 16
+    at 0, slope 1/2 at 0, value and slope continuous at the band's edges; w = 0 is the sharp max."""
+    import jax
+    import jax.numpy as jnp
+
+    from rockjax.sph.walls import smooth_max0
+
+    w = 50.0
+    f = lambda x: float(smooth_max0(jnp.asarray(x), w))  # noqa: E731
+    df = lambda x: float(jax.grad(lambda y: smooth_max0(y, w))(jnp.asarray(x)))  # noqa: E731
+    for x in (-200.0, -w, w, 70.0):
+        assert f(x) == max(x, 0.0)
+    assert f(0.0) == pytest.approx(3 * w / 16, rel=1e-14)
+    assert df(0.0) == pytest.approx(0.5, rel=1e-14)
+    assert df(w * (1 - 1e-9)) == pytest.approx(1.0, abs=1e-8) and df(-w * (1 - 1e-9)) == pytest.approx(0.0, abs=1e-8)
+    assert f(w * (1 - 1e-9)) == pytest.approx(w, rel=1e-8)
+    xs = np.linspace(-2 * w, 2 * w, 801)
+    vals = np.array([f(x) for x in xs])
+    assert np.all(np.diff(vals) >= 0) and np.all(vals >= np.maximum(xs, 0.0) - 1e-12)  # monotone, above the floor
+    assert float(smooth_max0(jnp.asarray(-3.0), 0.0)) == 0.0 and float(smooth_max0(jnp.asarray(3.0), 0.0)) == 3.0

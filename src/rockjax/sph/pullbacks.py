@@ -75,7 +75,7 @@ def momentum(config: Config) -> Optional[Callable]:
     """The pullback of ``wcsph._momentum_pair`` (artificial viscosity; None otherwise)."""
     from .viscosity import Artificial
 
-    if type(config.scheme.viscosity) is not Artificial:
+    if type(config.scheme.viscosity) is not Artificial or config.scheme.viscosity.approach_band > 0:
         return None
 
     def pullback(own, nb, d, r, params: Params, mask, fluid_j, g_r, g_j, g_p):

@@ -59,9 +59,17 @@ def _eta2(h):
 class Artificial(Viscosity):
     """Monaghan (1992) artificial viscosity, coefficient ``Params.fluid.alpha``: on approaching
     pairs ``Pi_ij = -2 alpha c0 mu_ij / (rho_i + rho_j)``, ``mu_ij = h v_ij . x_ij / (r^2 + 0.01 h^2)``
-    (``q = m_j Pi_ij``). Has a hand-derived pullback (``sph.pullbacks.momentum``)."""
+    (``q = m_j Pi_ij``). Has a hand-derived pullback (``sph.pullbacks.momentum``, sharp switch only).
+
+    ``approach_band`` [-]: the switch "approaching pairs only" is a kink in the forward map (Pi is
+    continuous at ``v_ij . x_ij = 0`` but its slope jumps). A band > 0 turns it on smoothly: Pi is
+    multiplied by the cubic smoothstep of ``-mu_ij / (band c0)`` from -1 to 1 (C1 in ``mu``, so
+    ``Pi`` is C2; exactly Monaghan's beyond ``|mu_ij| >= band c0``, half of it at ``mu = 0``), for
+    gradients over long horizons (issue 44). 0 (default): the sharp switch.
+    """
 
     name = "artificial"
+    approach_band: float = 0.0
 
     def pair(self, m_j, rho_i, rho_j, vij, d, r2, F, fluid_j, params, ri, cj):
         f = params.fluid
@@ -70,7 +78,11 @@ class Artificial(Viscosity):
         visc = jnp.where(fluid_j, 1.0, f.wall_viscosity)
         vr = vij[0] * d[0] + vij[1] * d[1] + vij[2] * d[2]
         mu = h * vr / (r2 + eta2)
-        pi_ij = jnp.where(vr < 0, (-2.0 * f.alpha * f.c0) * visc * mu / (rho_i + rho_j), 0.0)
+        if self.approach_band > 0:
+            u = jnp.clip(0.5 - 0.5 * mu / (self.approach_band * f.c0), 0.0, 1.0)
+            pi_ij = (u * u * (3.0 - 2.0 * u)) * (-2.0 * f.alpha * f.c0) * visc * mu / (rho_i + rho_j)
+        else:
+            pi_ij = jnp.where(vr < 0, (-2.0 * f.alpha * f.c0) * visc * mu / (rho_i + rho_j), 0.0)
         return m_j * pi_ij, None, None
 
 

@@ -21,7 +21,7 @@ from ..types import Config, Kind
 from .neighbours import Pairs, min_image, safe_norm, take, transpose_sum, wall_sum
 from .terms import Term
 
-__all__ = ["WallModel", "Adami", "DynamicWalls", "adami_pressure", "adami_terms", "adami_finish", "WallPairs", "wall_pair_geometry", "adami_sums"]
+__all__ = ["WallModel", "Adami", "DynamicWalls", "adami_pressure", "adami_terms", "adami_finish", "smooth_max0", "WallPairs", "wall_pair_geometry", "adami_sums"]
 
 
 class WallPairs(NamedTuple):
@@ -81,11 +81,29 @@ def adami_terms(pr: Pairs, p_rows, rho_rows, kind, gravity, h, w_fn, *, kind_j=N
     return jnp.stack([w * (p_rows[:, None] - rho_rows[:, None] * g_d), w], axis=-1)
 
 
-def adami_finish(sums, p, kind):
-    """Wall pressures from the summed ``adami_terms`` ``sums`` [N, 2]: [N] (``p`` off the walls)."""
+def smooth_max0(x, width: float):
+    """``max(x, 0)`` with the corner rounded over ``|x| < width`` (C2; exact beyond the band).
+
+    Its slope is the cubic smoothstep from 0 at ``x = -width`` to 1 at ``x = width``, so the value
+    is ``2 width (u^3 - u^4 / 2)`` with ``u = (x + width) / (2 width)`` inside the band (``3 width
+    / 16`` at ``x = 0``). ``width = 0`` (static): the sharp ``max``.
+    """
+    if width <= 0:
+        return jnp.maximum(x, 0.0)
+    u = jnp.clip((x + width) / (2.0 * width), 0.0, 1.0)
+    inside = 2.0 * width * u**3 * (1.0 - 0.5 * u)
+    return jnp.where(x >= width, x, inside)
+
+
+def adami_finish(sums, p, kind, *, floor_band: float = 0.0):
+    """Wall pressures from the summed ``adami_terms`` ``sums`` [N, 2]: [N] (``p`` off the walls).
+
+    Negative extrapolated pressures are floored at 0 (no wall suction); ``floor_band`` [Pa] rounds
+    that floor's corner (``smooth_max0``; ``Adami.floor_band``).
+    """
     num, den = sums[:, 0], sums[:, 1]
     pw = jnp.where(den > 0, num / jnp.where(den > 0, den, 1.0), 0.0)
-    return jnp.where(kind == Kind.WALL, jnp.maximum(pw, 0.0), p)
+    return jnp.where(kind == Kind.WALL, smooth_max0(pw, floor_band), p)
 
 
 def adami_pressure(pr: Pairs, p, rho, kind, gravity, h, w_fn, config: Config, *, kind_j=None):
@@ -140,10 +158,16 @@ class Adami(WallModel):
     converges at second order instead of first (``tests/physics/test_poiseuille.py``). Off by
     default: the walls then move at their own velocity, an effective no-slip plane ~0.6 dx behind
     the wall surface.
+
+    ``floor_band`` [Pa]: the extrapolated pressure is floored at 0 (walls never pull the water);
+    a band > 0 rounds that corner over +-band (``smooth_max0``, C2, exact beyond it), for gradients
+    over long horizons (issue 44: at the free surface wall pressures cross 0 all the time, and the
+    sharp floor makes the forward map kinked there). 0 (default): the sharp floor.
     """
 
     name = "adami"
     no_slip: bool = False
+    floor_band: float = 0.0
 
     @property
     def mirrors_velocity(self) -> bool:
