@@ -21,7 +21,7 @@ from rockjax.blocks import Motion, box, make_blocks, quat_from_axis_angle
 
 from fcp_cases import fcp_fn, padded, place_at_gap, random_block, random_rotation, sat, support_edges_of
 
-ITER = 2  # the default make_blocks fcp_iterations
+ITER = 1  # the default make_blocks fcp_iterations
 
 
 def run_fcp(pi, qi, xi, pj, qj, xj, *, iterations=ITER, n_prev=None, by_direction=True, support_edges=None):

@@ -224,7 +224,10 @@ class BlockConfig:
         unknown, taken as many).
       motion: per-block :class:`Motion`.
       capacities: :class:`BlockCapacities`, the buffers the driver grows on an overflow bit.
-      fcp_iterations: fixed number of Fast Common Plane iterations per pair and step. Not run
+      fcp_iterations: fixed number of Fast Common Plane iterations per pair and step (default 1:
+        from the pair's plane of the previous step one iteration reaches the plane that more give,
+        and from a cold start it is exact on random overlaps; ``experiments/fcp_iterations_pile.py``,
+        ``bench_blocks.py``'s accuracy table). Not run
         for blocks with at most 8 edge directions each (boxes, prisms of up to 7 sides:
         ``fcp.sat_start``) without joint water: their start holds every separating axis, so an
         overlapping pair's plane is exact from the start.
@@ -266,7 +269,7 @@ class BlockConfig:
     max_valence: int
     motion: tuple
     capacities: BlockCapacities
-    fcp_iterations: int = 2
+    fcp_iterations: int = 1
     broadphase: Broadphase = Broadphase.ALL_PAIRS
     prescribed_direction: tuple = ()
     prescribed_ramp: float = 0.0
@@ -1255,7 +1258,7 @@ def make_blocks(
     prescribed_ramp: float = 0.0,
     paths=None,
     pair_capacity: Optional[int] = None,
-    fcp_iterations: int = 2,
+    fcp_iterations: int = 1,
     broadphase: Optional[Broadphase] = None,
     aabb_margin: Optional[float] = None,
     grid_cell_size: Optional[float] = None,
