@@ -134,8 +134,13 @@ def _n_points(s):
 ROCK_WARMUP_S = 0.05
 
 
-def run_blocks(n, steps, chunk=50, pair_segment=None, edges_as_directions=False, shape="box", **kw):
+def pile_stepper(n, chunk=50, pair_segment=None, edges_as_directions=False, shape="box", lift=0.0, **kw):
+    """The pile of :func:`pile` (its blocks raised by ``lift`` m) as blocks of ``make_blocks(**kw)``
+    and a jitted ``advance(state, t0) -> (state, status, t, pairs [chunk], points [chunk])`` over
+    ``chunk`` steps of the stable dt under gravity. Returns ``(cfg, state, dt, advance)``."""
     polys, pos = pile(n, shape=shape)
+    pos = np.array(pos, dtype=float)
+    pos[1:, 2] += lift
     motion = [Motion.FIXED] + [Motion.DYNAMIC] * n
     bp = Broadphase.ALL_PAIRS if n <= 32 else Broadphase.GRID
     cfg, par, st = make_blocks(polys, positions=pos, motion=motion, normal_stiffness=1e7, shear_stiffness=4e6,
@@ -154,6 +159,12 @@ def run_blocks(n, steps, chunk=50, pair_segment=None, edges_as_directions=False,
         (s, stat, t), (npairs, npts) = jax.lax.scan(body, (s, jnp.int32(0), t0), None, length=chunk)
         return s, stat, t, npairs, npts
 
+    return cfg, st, dt, advance
+
+
+def run_blocks(n, steps, chunk=50, pair_segment=None, edges_as_directions=False, shape="box", **kw):
+    cfg, st, dt, advance = pile_stepper(n, chunk, pair_segment, edges_as_directions, shape, **kw)
+    bp = cfg.broadphase
     t0 = jnp.zeros((), st.x.dtype)
     tc = time.perf_counter()
     st, stat, t0, _, _ = advance(st, t0)

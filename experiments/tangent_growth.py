@@ -28,7 +28,6 @@ leaf and observable; per scene the fitted rates.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import time
@@ -75,17 +74,19 @@ def scale_of(g0, gs, offsets, tol=0.02):
 
 
 def tangent_runs(config, state, params, n_steps, observe, leaves, seed, n_fluid):
-    """Forward-mode tangents along one rollout: ``(times-independent dict)`` of [T, ...] arrays.
+    """Forward-mode tangents along one rollout (observations after every block of steps, T of them).
 
-    Returns ``(obs0, x0, tangents)``: the observables [T, n_obs] (None without ``observe``), the
-    water positions [T, n_fluid, 3], and ``tangents[name] = (d obs [T, n_obs] or None, d x [T, n_fluid, 3])``
-    for ``"x_init"`` (the initial water positions along a random unit-RMS direction) and each leaf
-    (``d / d ln theta``).
+    Returns ``(obs0, x, tangents, jvp, dx0, zero_p)``: the observables [T, n_obs] ([T, 0] without
+    ``observe``), the water positions [T, n_fluid, 3], ``tangents[name] = (d obs [T, n_obs],
+    d x [T, n_fluid, 3])`` for ``"x_init"`` (the initial water positions along a random unit-RMS
+    direction) and each leaf (``d / d ln theta``); and, for more tangents of the same compiled
+    program, ``jvp(params, dx0, params_tangent, dx0_tangent)``, the zero position offset ``dx0``
+    and a zero params tangent ``zero_p``.
     """
 
-    def run(p, dv):
+    def run(p, dx0):
         parts = state.particles
-        s = state.replace(particles=parts.replace(x=parts.x.at[:n_fluid].add(dv)))
+        s = state.replace(particles=parts.replace(x=parts.x.at[:n_fluid].add(dx0)))
 
         def obs(st, pp):
             o = observe(st, pp) if observe is not None else jnp.zeros((0,))
@@ -94,43 +95,32 @@ def tangent_runs(config, state, params, n_steps, observe, leaves, seed, n_fluid)
         final, (o, x) = observed(config, p, n_steps, obs, state=s)
         return (o, x), final.status
 
-    dv0 = jnp.zeros((n_fluid, 3))
+    dx0 = jnp.zeros((n_fluid, 3))
     fwd = jax.jit(run)
-    (o0, x0), status = fwd(params, dv0)
+    (o0, x0), status = fwd(params, dx0)
     if int(status):
         raise RuntimeError(f"forward run failed: {Status.describe(int(status))}")
-    jvp = jax.jit(lambda p, dv, tp, tdv: jax.jvp(lambda q, e: run(q, e)[0], (p, dv), (tp, tdv))[1])
+    jvp = jax.jit(lambda p, d, tp, td: jax.jvp(lambda q, e: run(q, e)[0], (p, d), (tp, td))[1])
     zero_p = jax.tree_util.tree_map(jnp.zeros_like, params)
     e = jax.random.normal(jax.random.PRNGKey(seed), (n_fluid, 3))
     e = e / jnp.sqrt(jnp.mean(e * e))
-    out = {"x_init": jvp(params, dv0, zero_p, e)}
+    out = {"x_init": jvp(params, dx0, zero_p, e)}
     for leaf in leaves:
         x0_leaf = get_leaf(params, leaf)
-        out[leaf] = jvp(params, dv0, set_leaf(zero_p, leaf, x0_leaf), jnp.zeros_like(dv0))
+        out[leaf] = jvp(params, dx0, set_leaf(zero_p, leaf, x0_leaf), jnp.zeros_like(dx0))
     np_out = {k: (np.asarray(v[0]), np.asarray(v[1])) for k, v in out.items()}
-    return np.asarray(o0), np.asarray(x0), np_out, jvp, dv0, zero_p
+    return np.asarray(o0), np.asarray(x0), np_out, jvp, dx0, zero_p
 
 
 DAM_OBS = ("kinetic_energy", "centroid_x", "front_x")
 
 
-def fluid_variant(config, name: str, dx: float):
-    """The dam break's config for a wedge variant name: only its fluid parts apply (``smoothav``,
-    ``softfloor``, ``laminar``); the block parts (``smooth``, ``law``, ...) have nothing to act on."""
-    import dataclasses
-
-    from rockjax.sph import Artificial, Laminar
-
-    parts = set(name.split("+"))
-    scheme = config.scheme
-    if "smoothav" in parts:
-        scheme = dataclasses.replace(scheme, viscosity=Artificial(approach_band=1e-3))
-    if "laminar" in parts:
-        scheme = dataclasses.replace(scheme, viscosity=Laminar())
-    if "softfloor" in parts:
-        band = 0.1 * 1000.0 * 9.81 * dx
-        scheme = dataclasses.replace(scheme, walls=dataclasses.replace(scheme.walls, floor_band=band))
-    return config.replace(scheme=scheme)
+def fluid_variant(scene, name: str):
+    """The water-only scene's config for a wedge variant name: ``smoothness_ab.variant`` with only
+    its fluid parts (``smoothav``, ``softfloor``, ``laminar``); the block parts (``smooth``,
+    ``law``, ...) have nothing to act on."""
+    parts = [p for p in name.split("+") if p in ("smoothav", "softfloor", "laminar")]
+    return variant(scene, "+".join(parts) or "sharp")
 
 
 def dam_observer(config, dx: float):
@@ -181,7 +171,7 @@ def main(argv=None):
     if a.control:
         dam = scenes.dam_break(dx=a.dx / 2, column_length=0.2, column_width=0.2, column_height=0.4, tank_length=0.8,
                                tank_width=0.2)
-        dcfg = fluid_variant(dam.config, a.variant, a.dx / 2)
+        dcfg = fluid_variant(dam, a.variant)
         cases.append(("dam_break", dcfg, dam.state, dam.params, dam_observer(dcfg, a.dx / 2), ["fluid.alpha"], ["fluid.alpha"],
                       DAM_OBS))
     if a.only_control:
@@ -191,7 +181,7 @@ def main(argv=None):
         dt = float(config.dt)
         steps = a.steps if name == "wedge" else int(round(a.steps * float(scene.config.dt) / dt / config.rebuild_every)) * config.rebuild_every
         t0 = time.perf_counter()
-        o0, x0, tang, jvp, dv0, zero_p = tangent_runs(config, state, params, steps, observe, lv, a.seed, nf)
+        o0, x0, tang, jvp, dx0, zero_p = tangent_runs(config, state, params, steps, observe, lv, a.seed, nf)
         t_tan = time.perf_counter() - t0
         times = dt * config.rebuild_every * np.arange(1, x0.shape[0] + 1)
         norms = {k: rms(v[1]) for k, v in tang.items()}
@@ -205,7 +195,7 @@ def main(argv=None):
                 gs = []
                 for d in offsets:
                     p = set_leaf(params, leaf, th * (1 + d))
-                    gs.append(np.asarray(jvp(p, dv0, set_leaf(zero_p, leaf, th), jnp.zeros_like(dv0))[0]))
+                    gs.append(np.asarray(jvp(p, dx0, set_leaf(zero_p, leaf, th), jnp.zeros_like(dx0))[0]))
                 gs = np.stack(gs)  # [K, T, n_obs]
                 g0 = tang[leaf][0]
                 scales[leaf] = np.array([[scale_of(g0[t, k], gs[:, t, k], offsets) for k in range(g0.shape[1])]

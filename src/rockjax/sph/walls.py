@@ -95,15 +95,16 @@ def smooth_max0(x, width: float):
     return jnp.where(x >= width, x, inside)
 
 
-def adami_finish(sums, p, kind, *, floor_band: float = 0.0):
+def adami_finish(sums, p, kind, config: Config):
     """Wall pressures from the summed ``adami_terms`` ``sums`` [N, 2]: [N] (``p`` off the walls).
 
-    Negative extrapolated pressures are floored at 0 (no wall suction); ``floor_band`` [Pa] rounds
-    that floor's corner (``smooth_max0``; ``Adami.floor_band``).
+    Negative extrapolated pressures are floored at 0 (no wall suction), the corner rounded over the
+    scheme's ``Adami.floor_band`` [Pa] (``smooth_max0``; sharp for wall models without one).
     """
     num, den = sums[:, 0], sums[:, 1]
     pw = jnp.where(den > 0, num / jnp.where(den > 0, den, 1.0), 0.0)
-    return jnp.where(kind == Kind.WALL, smooth_max0(pw, floor_band), p)
+    band = getattr(config.scheme.walls, "floor_band", 0.0)
+    return jnp.where(kind == Kind.WALL, smooth_max0(pw, band), p)
 
 
 def adami_pressure(pr: Pairs, p, rho, kind, gravity, h, w_fn, config: Config, *, kind_j=None):
@@ -121,7 +122,7 @@ def adami_pressure(pr: Pairs, p, rho, kind, gravity, h, w_fn, config: Config, *,
         return p
     rows = pr.rows
     terms = adami_terms(pr, rows.of(p), rows.of(rho), kind, gravity, h, w_fn, kind_j=kind_j)
-    return adami_finish(transpose_sum(terms, pr.idx, config.n_particles), p, kind)
+    return adami_finish(transpose_sum(terms, pr.idx, config.n_particles), p, kind, config)
 
 
 class WallModel(Term):

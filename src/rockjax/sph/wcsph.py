@@ -162,7 +162,7 @@ def _wall_pressure(p, rho, kind, adami_sums, params: Params, config: Config):
     if not config.scheme.walls.dynamic:
         if adami_sums is None:
             return p, rho
-        p = adami_finish(adami_sums, p, kind, floor_band=getattr(config.scheme.walls, "floor_band", 0.0))
+        p = adami_finish(adami_sums, p, kind, config)
         return p, jnp.where(wall, tait_density(p, f.rho0, f.c0, gamma), rho)
     rho = jnp.where(wall, jnp.maximum(rho, f.rho0), rho)
     return jnp.where(wall, tait_pressure(rho, f.rho0, f.c0, gamma), p), rho
