@@ -373,16 +373,29 @@ def _candidate_words(x_rows, xm, start, end, pos_rows, L: int, grid: GridSpec, r
     words = jnp.zeros((n_rows, W), jnp.uint32)
     for q in range(4):  # byte q of every word: slots 32 w + 8 q + j, j < 8, all in range (4 w + q) // L8
         byte = 4 * np.arange(W) + q
-        r = np.minimum(byte // L8, R - 1)
         off = (byte % L8) * 8
-        first = start[:, r] + off
-        left = jnp.where(byte < n_bytes, length[:, r] - off, 0)  # slots of the range from this byte on
+        first = _byte_columns(start, byte // L8) + off
+        left = jnp.where(byte < n_bytes, _byte_columns(length, byte // L8) - off, 0)  # slots left from this byte on
         for j in range(8):
             slot = first + j
             d = [min_image(xi[a] - take(xm[a], slot), a, grid) for a in range(3)]
             hit = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < radius2) & (j < left) & (slot != pos_rows[:, None])
             words = words | (hit.astype(jnp.uint32) << (8 * q + j))
     return words
+
+
+def _byte_columns(a, r):
+    """``a[:, r]`` for the static column indices ``r`` [W] (past ``a``'s last column: that column),
+    as a strided slice when ``r`` is an arithmetic progression (columns past the end read as zeros:
+    only bytes past the last range read them, and those are masked). A gather with constant indices
+    stays a gather in XLA:CPU; fused into ``_candidate_words``' loop it made every slot slower."""
+    step = int(r[1] - r[0]) if len(r) > 1 else 1
+    if step >= 1 and np.all(np.diff(r) == step):
+        need = int(r[-1]) + 1
+        if need > a.shape[1]:
+            a = jnp.pad(a, ((0, 0), (0, need - a.shape[1])))
+        return a[:, int(r[0]):need:step]
+    return a[:, np.minimum(r, a.shape[1] - 1)]
 
 
 def _uniform_cond(pred, fast, full, operand):
