@@ -1576,6 +1576,23 @@ def sec_dfsph(doc: Doc):
                 + [r.get("rebuild_ms"), r.get("rebuild_share"), r.get("divergence_solve_ms")] for r in prof]
         doc.p(table(["date", "size", "water", "walls", "K", "scheduled", "no rebuild", "no rebuild, no divergence",
                      "rebuild ms", "rebuild share", "divergence solve ms"], rows))
+    lab = doc.records("ab_list_slices.jsonl", "python experiments/ab_commits.py --commits OLD NEW --repeats 2 "
+                      "--metric sim_s_per_wall_s --by scheme size --out experiments/results/ab_list_slices.jsonl -- "
+                      "experiments/compare_peers.py --schemes dfsph wcsph --sizes 5k 20k 80k")
+    lab = [r for r in lab or [] if r.get("bench") == "ab_commits"]
+    if lab:
+        doc.p("The list build's candidate loop before / after reading each byte's range start and length by strided "
+              "slices instead of constant-index gathers (`ab_commits.py` over `compare_peers.py`'s dam break, "
+              "rockjax only: each commit in fresh processes, alternated round by round; simulated s per wall s, "
+              "best and median of the rounds).")
+        rows = []
+        for r in lab:
+            a, b = list(r["commits"])[:2]
+            rows.append([r.get("scheme"), r.get("size"), f"{a} ({r['commits'][a][:7]})", f"{b} ({r['commits'][b][:7]})",
+                         r["best"].get(a), r["best"].get(b), (r.get("ratio_to_first") or {}).get(b),
+                         (r.get("median_ratio_to_first") or {}).get(b, "-"), r.get("repeats"), r.get("date")])
+        doc.p(table(["scheme", "size", "before", "after", "before sim s / wall s", "after sim s / wall s",
+                     "after / before (best)", "(median)", "rounds", "date"], rows))
     adj = doc.records("dfsph_adjoint.jsonl", "python experiments/dfsph_adjoint.py [--dx 0.05 --cases ...] "
                       "--out experiments/results/dfsph_adjoint.jsonl")
     if adj is not None:
