@@ -550,7 +550,9 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     # overlapping pair's plane is then exact without iterations, and only the joint water's fade
     # reads a separated pair's gap (which the iterations may still raise)
     n_dir = sh.direction_edge.shape[1]
-    iterations = 0 if sat_start(n_dir) and not config.joint_water else config.fcp_iterations
+    complete = sat_start(n_dir) and not config.joint_water
+    iterations = 0 if complete else config.fcp_iterations
+    warm_iterations = 0 if complete else min(config.fcp_warm_iterations, iterations)
     support_edges = config.support_edges if 0 < config.support_edges < n_dir else 0
     crosses = config.fcp_crosses if support_edges and 0 < config.fcp_crosses < support_edges ** 2 else 0
     bodies = _Bodies(Xw, Nw, Dw, sh, state.x, state.v, state.omega, jnp.where(dyn, 1.0 / m, 0.0))
@@ -558,8 +560,14 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     def pair_forces(i, j, mask, plane, plane_valid, shear, feature_old):
         """Common plane, contact points and contact law of the pairs (i, j) [S] (a segment of the
         buffer): per-pair forces on j and torques on i and j, the new history, diagnostics."""
-        fcp = _common_planes(bodies, i, j, plane, plane_valid, iterations=iterations,
-                             support_edges=support_edges, crosses=crosses)
+        def planes(its):
+            return lambda: _common_planes(bodies, i, j, plane, plane_valid, iterations=its,
+                                          support_edges=support_edges, crosses=crosses)
+
+        if warm_iterations == iterations:
+            fcp = planes(iterations)()
+        else:  # a segment whose pairs all carry last step's plane: its last round is exact from there
+            fcp = jax.lax.cond(jnp.all(plane_valid | ~mask), planes(warm_iterations), planes(iterations))
         n = fcp["normal"]
         pc = _pair_points(bodies, config, i, j, n, fcp["gap"])
         active_all = pc.active & mask[:, None]

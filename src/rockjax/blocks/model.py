@@ -224,10 +224,16 @@ class BlockConfig:
         unknown, taken as many).
       motion: per-block :class:`Motion`.
       capacities: :class:`BlockCapacities`, the buffers the driver grows on an overflow bit.
-      fcp_iterations: fixed number of Fast Common Plane iterations per pair and step (default 1:
-        from the pair's plane of the previous step one iteration reaches the plane that more give,
-        and from a cold start it is exact on random overlaps; ``experiments/fcp_iterations_pile.py``,
-        ``bench_blocks.py``'s accuracy table). Not run
+      fcp_iterations: fixed number of Fast Common Plane iterations per pair and step when a pair
+        starts cold (no plane of its own from the previous step; default 1: from a cold start one
+        iteration is exact on random overlaps, ``bench_blocks.py``'s accuracy table).
+      fcp_warm_iterations: the iterations instead when every candidate pair of a narrow-phase
+        segment (``pair_segment`` pairs, or the whole buffer) carries its plane from the previous
+        step (default 0: the FCP's last, differentiable candidate round from that plane is then
+        already exact: random overlaps with the pose moved 1 % of the block size and turned 0.01
+        rad since the stored plane, 150/150 exact; a 100-rock pile bit-identical to 8 iterations
+        over 5000 steps; ``experiments/fcp_iterations_pile.py``). The choice is a ``lax.cond`` per
+        segment: under ``jax.vmap`` both counts run. Neither is run
         for blocks with at most 8 edge directions each (boxes, prisms of up to 7 sides:
         ``fcp.sat_start``) without joint water: their start holds every separating axis, so an
         overlapping pair's plane is exact from the start.
@@ -287,6 +293,7 @@ class BlockConfig:
     tuning: BlockTuning = BlockTuning()
     max_directions: int = 0
     law: ContactLaw = PenaltyCoulomb()
+    fcp_warm_iterations: int = 0
 
     def __post_init__(self):
         if not isinstance(self.law, ContactLaw):
@@ -300,6 +307,8 @@ class BlockConfig:
             raise ValueError(f"BlockConfig.tuning must be a rockjax.blocks.BlockTuning (got {self.tuning!r})")
         if self.fcp_iterations < 0:
             raise ValueError("BlockConfig.fcp_iterations must be >= 0")
+        if self.fcp_warm_iterations < 0:
+            raise ValueError("BlockConfig.fcp_warm_iterations must be >= 0")
         if not (self.prescribed_ramp >= 0.0 and math.isfinite(self.prescribed_ramp)):
             raise ValueError(f"BlockConfig.prescribed_ramp must be a finite time >= 0 s (got {self.prescribed_ramp})")
         if self.paths:
@@ -1050,7 +1059,8 @@ def _refuse_overlaps(polys, pos, ori, motion, *, limit: float) -> None:
                 f"springs would throw them apart); move them apart (check_overlap=False builds it anyway)")
 
 
-def _contact_fields(geometry: BlockGeometry, *, fcp_iterations, broadphase, aabb_margin, grid_cell_size,
+def _contact_fields(geometry: BlockGeometry, *, fcp_iterations, fcp_warm_iterations, broadphase, aabb_margin,
+                    grid_cell_size,
                     edge_contacts, inside_tolerance, penetration_limit, joint_water, joint_aperture, law) -> dict:
     """The ``BlockConfig`` fields of the contact search and law (``make_blocks``' arguments of
     those names, validated, defaults resolved from the blocks' sizes; ``large_blocks`` follows
@@ -1063,6 +1073,9 @@ def _contact_fields(geometry: BlockGeometry, *, fcp_iterations, broadphase, aabb
     it = int(fcp_iterations)
     if it < 0 or it != fcp_iterations:
         raise ValueError(f"fcp_iterations must be a non-negative integer, got {fcp_iterations}")
+    warm = int(fcp_warm_iterations)
+    if warm < 0 or warm != fcp_warm_iterations:
+        raise ValueError(f"fcp_warm_iterations must be a non-negative integer, got {fcp_warm_iterations}")
     margin = 0.05 * float(radius.min()) if aabb_margin is None else _scalar("aabb_margin", aabb_margin, lo=0.0,
                                                                              unit="m")
     jw_ap = _scalar("joint_aperture", joint_aperture, lo=0.0, unit="m")
@@ -1078,7 +1091,8 @@ def _contact_fields(geometry: BlockGeometry, *, fcp_iterations, broadphase, aabb
         law = PenaltyCoulomb()
     if not isinstance(law, ContactLaw):
         raise ValueError(f"law must be a rockjax.blocks.laws.ContactLaw (e.g. PenaltyCoulomb()), got {law!r}")
-    return dict(fcp_iterations=it, broadphase=broadphase, aabb_margin=float(margin), grid_cell_size=float(cell),
+    return dict(fcp_iterations=it, fcp_warm_iterations=warm, broadphase=broadphase, aabb_margin=float(margin),
+                grid_cell_size=float(cell),
                 large_blocks=large, edge_contacts=bool(edge_contacts), inside_tolerance=float(inside_tolerance),
                 penetration_limit=float(penetration_limit), joint_water=bool(joint_water),
                 joint_aperture=float(jw_ap), law=law)
@@ -1259,6 +1273,7 @@ def make_blocks(
     paths=None,
     pair_capacity: Optional[int] = None,
     fcp_iterations: int = 1,
+    fcp_warm_iterations: int = 0,
     broadphase: Optional[Broadphase] = None,
     aabb_margin: Optional[float] = None,
     grid_cell_size: Optional[float] = None,
@@ -1317,7 +1332,9 @@ def make_blocks(
         params' stroke scales every path (``BlockConfig.path_stroke``).
       pair_capacity: candidate-pair buffer; default all candidate pairs (ALL_PAIRS) or
         ``8 x n_dynamic + (#large blocks x B)`` (GRID).
-      fcp_iterations: Fast Common Plane iterations per step (>= 0).
+      fcp_iterations: Fast Common Plane iterations per step of a pair starting cold (>= 0).
+      fcp_warm_iterations: those of a segment of pairs warm-started from their last planes (>= 0;
+        ``BlockConfig``).
       broadphase: default ALL_PAIRS for up to 32 blocks, GRID above.
       aabb_margin: m; default 0.05 x the smallest block radius.
       grid_cell_size: m; default 1.5 x the median block size (Nezami et al. 2004).
@@ -1352,7 +1369,8 @@ def make_blocks(
                              damping_ratio=damping_ratio, joint_water_level=joint_water_level,
                              joint_water_density=joint_water_density)
     params = material.params(geometry)
-    contact = _contact_fields(geometry, fcp_iterations=fcp_iterations, broadphase=broadphase, aabb_margin=aabb_margin,
+    contact = _contact_fields(geometry, fcp_iterations=fcp_iterations, fcp_warm_iterations=fcp_warm_iterations,
+                              broadphase=broadphase, aabb_margin=aabb_margin,
                               grid_cell_size=grid_cell_size, edge_contacts=edge_contacts,
                               inside_tolerance=inside_tolerance, penetration_limit=penetration_limit,
                               joint_water=joint_water, joint_aperture=joint_aperture, law=law)
