@@ -89,7 +89,8 @@ def main(argv=None):
 
     settle = float(np.max(np.linalg.norm(xr[1:] - np.asarray(pile(a.n, shape=a.shape)[1])[1:], axis=1)))
     base = dict(bench="fcp_iterations_pile", dtype=str(ref.x.dtype), shape=a.shape, n_blocks=a.n, steps=a.steps, dt=dt, t_end=a.steps * dt,
-                reference_iterations=ref_it, max_block_travel_m=settle, block_size_m=size)
+                reference_iterations=ref_it, max_block_travel_m=settle, block_size_m=size,
+                date=time.strftime("%Y-%m-%d"), cmd="experiments/fcp_iterations_pile.py " + " ".join(sys.argv[1:]))
     nudged, stat_n, _, _ = run(a.n, a.shape, ref_it, a.steps, nudge=1e-9)
     mx, rms, rot = diff(nudged)
     emit(dict(base, case=f"{ref_it} iterations, initial heights +1e-9 m", max_dx_m=mx, rms_dx_m=rms, max_drot=rot,

@@ -521,10 +521,15 @@ def sec_blocks(doc: Doc):
               "against the run with 8 iterations, beside what a 1e-9 m nudge of the initial heights changes (the pile's "
               "own sensitivity). The default is 1 since 2026-12-02 (was 2). The status `FCP_CROSS_OVERFLOW` (a round with more "
               "edge crosses than `fcp_crosses` = 128 slots) is raised in every run, with 8 iterations too, once the rocks "
-              "have settled (the 800-step timing runs stay clean).")
-        doc.p(table(["dtype", "shape", "blocks", "t end s", "case", "max |dx| m", "rms |dx| m", "max |dR|", "status", "wall s"],
+              "have settled (the 800-step timing runs stay clean). Rows `..., 0 when warm-started`: "
+              "`BlockConfig.fcp_warm_iterations` (the default 0 since 2026-12-02): a narrow-phase segment whose pairs all "
+              "carry last step's plane runs no iteration (its final, differentiable round from that plane), one with a "
+              "cold pair runs `fcp_iterations`; their differences (~2e-15 m) are the round-off of another compiled "
+              "program, not the FCP's. Timing: `bench_blocks_commits` (below).")
+        doc.p(table(["dtype", "shape", "blocks", "t end s", "case", "max |dx| m", "rms |dx| m", "max |dR|", "status", "wall s",
+                     "date"],
                     [[r.get("dtype"), r["shape"], r["n_blocks"], r["t_end"], r["case"], r["max_dx_m"], r["rms_dx_m"],
-                      r["max_drot"], r["status"], r.get("wall_s", "-")] for r in fp]))
+                      r["max_drot"], r["status"], r.get("wall_s", "-"), r.get("date", "-")] for r in fp]))
     sab = ab_records("bench_blocks_support_edges.jsonl",
                      "python experiments/bench_blocks.py --shape rock --sizes 100 --ab-support-edges 0 -1 --out "
                      "experiments/results/bench_blocks_support_edges.jsonl", "blocks_support_edges_ab")
