@@ -231,7 +231,7 @@ class BlockConfig:
         segment (``pair_segment`` pairs, or the whole buffer) carries its plane from the previous
         step (default 0: the FCP's last, differentiable candidate round from that plane is then
         already exact: random overlaps with the pose moved 1 % of the block size and turned 0.01
-        rad since the stored plane, 150/150 exact; a 100-rock pile bit-identical to 8 iterations
+        rad since the stored plane, 150/150 exact; a 100-rock pile within 2e-15 m of 8 iterations
         over 5000 steps; ``experiments/fcp_iterations_pile.py``). The choice is a ``lax.cond`` per
         segment: under ``jax.vmap`` both counts run. Neither is run
         for blocks with at most 8 edge directions each (boxes, prisms of up to 7 sides:
