@@ -1406,6 +1406,31 @@ def sec_waves(doc: Doc):
                      "crest/H 5 d", "crest/H 10 d", "celerity err.", "shape RMS/H", "R [m]", "R Synolakis [m]", "R err.",
                      "R err. (H meas.)", "n_fluid", "wall s", "date"], rows))
 
+    recs = doc.records("piston_flux.jsonl", "python experiments/piston_flux.py --dx DX --out "
+                       "experiments/results/piston_flux.jsonl")
+    if recs is not None:
+        doc.p("Does the paddle deliver its flux? (`experiments/piston_flux.py`: `piston_decay.py`'s flume, kh = 1, "
+              "depth 0.3 m, stroke 0.04 m, boundary-particle paddle.) First-harmonic amplitude of the depth-integrated "
+              "volume flux per unit width at sections 0.5-4 depths from the paddle (particles within dx of the "
+              "section), against the paddle's own `S/2 omega d` (`flux / paddle`) and against `(omega / k) H / 2` of "
+              "the height H the gauge at the same section measures (`flux / flux(H)`: 1 for a progressive linear "
+              "wave); H/S against linear theory's 0.982. Linear theory's `flux / paddle` beyond the evanescent modes is "
+              "also 0.982 (the progressive wave's flux amplitude `(omega / k) H / 2` with `1 / k = d` at kh = 1).")
+        doc.p("`depth filled`: the water as the scene fills it, whole lattice layers below the 0.3 m asked for "
+              "(0.28 m at dx 0.04); `flux / paddle` against the paddle's flux over the nominal depth (over the filled "
+              "depth in brackets where recorded). The water behind the paddle (`behind`: particles past its face, a "
+              "leak) and the compression within one depth of it (first harmonic of the volume change over the "
+              "stroke volume) are recorded too.")
+        rows = [[r["dx"], r.get("volume_depth", "-"), r["wall_viscosity"], r["n_fluid"], r.get("behind_max", "-"),
+                 r.get("compression_over_stroke_volume", "-")]
+                + [f"{q['flux_over_paddle']:.3f}"
+                   + (f" ({q['flux_over_paddle_filled']:.3f})" if "flux_over_paddle_filled" in q else "")
+                   + f" / {q['H_over_S']:.3f} / {q['flux_over_flux_from_H']:.3f}"
+                   for q in r["sections"]] + [r["wall_s"], r.get("date")] for r in recs]
+        names = [f"{q['x_over_depth']:g} d: flux / paddle, H/S, flux / flux(H)" for q in recs[-1]["sections"]]
+        doc.p(table(["dx [m]", "depth filled [m]", "wall visc.", "n_fluid", "behind", "compression", *names, "wall s",
+                     "date"], rows))
+
 
 def sec_rock_slope(doc: Doc):
     doc.h("Rock slopes (issue 46): a jointed rock mass into a reservoir")
