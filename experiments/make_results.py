@@ -1381,7 +1381,9 @@ def sec_waves(doc: Doc):
               "0.02 m into a sponge (`rockjax.Sponge`, length in wavelengths, damping `strength` at its end) "
               "before a 1:2 beach, or into the bare beach; `Kr` from four gauges by Mansard & Funke's least squares "
               "(`validation.reflection`) over the periods after the reflection returned; `H_I` the incident height "
-              "in that window and before any reflection arrived. Target Kr <= 5 %.")
+              "in that window and before any reflection arrived. Target Kr <= 5 %. The rows at dx 0.04 m ran with "
+              "0.28 m of water, not 0.3 m (the flume filled 7 whole layers; it now refuses a depth that is not a "
+              "whole number of dx, and the script's default dx is 0.0375 m).")
         rows = [[r["kh"], r["dx"], r.get("viscosity", "artificial"), r["sponge"], r["sponge_wavelengths"], r["strength"], r["sponge_strength_over_omega"],
                  r["Kr"], r["H_incident"], r.get("H_incident_before_reflection"), r["target_height"], r["condition"],
                  r["periods"], r["n_fluid"], r["wall_s"], r.get("date")] for r in recs]

@@ -80,7 +80,7 @@ def run(kh: float, dx: float, *, sponge_wavelengths: float, strength: float, spo
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--kh", type=float, default=1.0)
-    ap.add_argument("--dx", type=float, default=0.04)
+    ap.add_argument("--dx", type=float, default=0.0375, help="m; a whole fraction of the 0.3 m depth (the flume refuses others)")
     ap.add_argument("--height", type=float, default=HEIGHT, help="target wave height m")
     ap.add_argument("--sponge-wavelengths", type=float, default=1.0)
     ap.add_argument("--strength", type=float, default=None, help="sponge damping 1/s (default: 2 omega)")

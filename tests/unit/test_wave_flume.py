@@ -76,3 +76,13 @@ def test_wave_flume_config_goes_to_json():
     (p,) = d["blocks"]["paths"]
     assert p["times"]["shape"] == [len(s.config.blocks.paths[0].times)] and len(p["times"]["sha1"]) == 40
     assert d["absorbers"][0]["start"] == [1.5, 0.0, 0.0]
+
+
+def test_water_depth_must_be_whole_layers():
+    """The flume fills whole lattice layers: 0.3 m at dx 0.04 would be 0.28 m of water under gauges
+    and a paddle signal that take 0.3 m. Refused early, naming the field and a dx that fits."""
+    with pytest.raises(ValueError, match=r"water_depth = 0.3 m is not a whole number of dx = 0.04 m.*0.28 m.*dx = 0.0375"):
+        rj.scenes.piston_wavemaker(dx=0.04, water_depth=0.3)
+    with pytest.raises(ValueError, match="not a whole number of dx = 0.07 m"):
+        rj.scenes.wave_flume(dx=0.07, water_depth=0.3, wave="solitary", wave_height=0.03)
+    assert rj.scenes.piston_wavemaker(dx=0.1, water_depth=0.3).config.n_fluid > 0  # 0.3 / 0.1 rounds to 3
