@@ -16,7 +16,9 @@ section x (``b = 2 dx``, ``W`` the slab width, ``V_i = m_i / rho_i``) against
 First harmonics fitted as ``piston_decay.py`` fits its gauges (``validation.wave_height``: whole
 periods from the front's arrival + 1 period until the beach reflection could return). JSON lines.
 
-    .venv/bin/python experiments/piston_flux.py [--dx 0.04] [--t-end 5] [--out F.jsonl]
+    .venv/bin/python experiments/piston_flux.py [--dx 0.03] [--t-end 5] [--out F.jsonl]
+
+Its dx 0.04 records ran before the flume refused a depth that is not a whole number of dx.
 """
 
 from __future__ import annotations
@@ -111,7 +113,7 @@ def analyse(res, T, stroke, volume_depth):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--dx", type=float, default=0.04)
+    ap.add_argument("--dx", type=float, default=0.03, help="m; a whole fraction of the 0.3 m depth")
     ap.add_argument("--t-end", type=float, default=5.0)
     ap.add_argument("--wall-viscosity", type=float, default=None, help="FluidParams.wall_viscosity (default: the scene's)")
     ap.add_argument("--stroke", type=float, default=STROKE)
