@@ -7,8 +7,9 @@ width ``Q(x, t) = sum_i V_i u_x,i / (b W)`` over the water particles within ``b 
 section x (``b = 2 dx``, ``W`` the slab width, ``V_i = m_i / rho_i``) against
 
 * the paddle's own flux ``d dX/dt`` (``X = S/2 sin(omega t)``: amplitude ``S/2 omega d``; also
-  with the depth as filled, whole lattice layers: 0.28 m at dx 0.04 for d = 0.3 m) at sections: a deficit there is flux the paddle does not deliver (a leak round it,
-  the fluid's compression, the wall treatment's gap);
+  with the depth as filled, whole lattice layers: 0.28 m at dx 0.04 for d = 0.3 m) at sections: a
+  deficit there is flux the paddle does not deliver (a leak round it, the fluid's compression, the
+  wall treatment's gap);
 * ``(omega / k) (H / 2)`` of the height H measured by the gauge at the same x (a progressive linear
   wave's flux, ``omega / k = c``): a deficit in H with the flux delivered is in the wave's own
   kinematics (the elevation a flux makes).

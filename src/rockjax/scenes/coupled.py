@@ -623,18 +623,18 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
                          f"(got {sponge_length})")
     if not (math.isfinite(sponge_strength) and sponge_strength > 0):
         raise ValueError(f"piston_wavemaker: sponge_strength must be a damping rate > 0 in 1/s (got {sponge_strength})")
-    layers = water_depth / dx
-    if math.isfinite(layers) and abs(layers - round(layers)) > 1e-6 * max(1.0, layers):
-        filled = math.floor(layers + 1e-9) * dx
-        raise ValueError(f"piston_wavemaker: water_depth = {water_depth} m is not a whole number of dx = {dx} m "
-                         f"(water_depth / dx = {layers:.4g}): the water is filled in whole lattice layers, "
-                         f"{filled:.4g} m deep, while the gauges and the wave generators take {water_depth} m; "
-                         f"choose dx = water_depth / n (e.g. dx = {water_depth / max(1, round(layers)):.4g} m)")
     if flume_width is None:
         flume_width = Resolution(dx, h_factor).narrowest_period(skin_factor=0.6) if periodic_y else 0.1
     for nm, v in (("stroke", stroke), ("period", period), ("water_depth", water_depth),
                   ("flat_length", flat_length), ("beach_slope", beach_slope), ("flume_width", flume_width)):
         _positive(f"piston_wavemaker: {nm}", v)
+    layers = water_depth / dx
+    if abs(layers - round(layers)) > 1e-6 * max(1.0, layers):
+        filled = math.floor(layers + 1e-9) * dx
+        raise ValueError(f"piston_wavemaker: water_depth = {water_depth} m is not a whole number of dx = {dx} m "
+                         f"(water_depth / dx = {layers:.4g}): the water is filled in whole lattice layers, "
+                         f"{filled:.4g} m deep, while the gauges and the wave generators take {water_depth} m; "
+                         f"choose dx = water_depth / n (e.g. dx = {water_depth / max(1, round(layers)):.4g} m)")
     if not (math.isfinite(ramp_periods) and ramp_periods >= 0):
         raise ValueError(f"piston_wavemaker: ramp_periods must be a finite number >= 0 (got {ramp_periods})")
     blocks = _blocks_api()
