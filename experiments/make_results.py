@@ -1440,7 +1440,9 @@ def sec_rock_slope(doc: Doc):
                        "--out experiments/results/rock_slope.jsonl")
     if recs is None:
         return
-    doc.p("`experiments/rock_slope.py`: `scenes.rock_slope` at dx 0.04 (its defaults otherwise; contact stiffness "
+    doc.p("`experiments/rock_slope.py`: `scenes.rock_slope` at dx 0.04 (its defaults otherwise; at dx 0.04 the flume "
+          "filled 7 whole layers, 0.28 m of water under a still level of 0.3 m: it now refuses a depth that is not a "
+          "whole number of dx, and the script's default dx is 0.0375; contact stiffness "
           "from the fastest impact, dt below the water's). `regime`: Hoek & Bray's chart for one block. Motion at "
           "the end against the start: along the slope (mean, min, max over the blocks), rotation (median, max, "
           "blocks over 10 degrees); gauges on the flat and run-up on the far beach (m, against the still level); "

@@ -2,7 +2,7 @@
 motion along and normal to the slope, rotation), the wave it makes (gauges, run-up) and what the
 run costs (simulated s per wall s, block-steps/s).
 
-    python experiments/rock_slope.py --failure planar [--dx 0.04] [--t-end 1.5] [--out experiments/results/rock_slope.jsonl]
+    python experiments/rock_slope.py --failure planar [--dx 0.0375] [--t-end 1.5] [--out experiments/results/rock_slope.jsonl]
 
 One JSON line per run (``jsonl_out.emit``).
 """
@@ -35,7 +35,7 @@ def tilt_deg(q) -> np.ndarray:
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--failure", choices=("planar", "toppling"), default="planar")
-    ap.add_argument("--dx", type=float, default=0.04)
+    ap.add_argument("--dx", type=float, default=0.0375, help="a whole fraction of the 0.3 m depth")
     ap.add_argument("--t-end", type=float, default=1.5)
     ap.add_argument("--frame-dt", type=float, default=0.05)
     ap.add_argument("--out", default=None)

@@ -416,9 +416,14 @@ def _total_loads(st: State) -> State:
 
 
 def _local_prime(st: State, sl: Slab, params: Params, dec: Decomposition):
+    """``step.prime`` of one device: the carried particles placed at their blocks' poses and point
+    velocities (as the one-device prime does: a state whose blocks were set after the scene was built,
+    e.g. a launched block, carries stale particles until then), the list rebuilt, the halo filled,
+    the accelerations and the loads (summed over the devices)."""
+    cfg = dec.local
+    st = cfg.coupling_method.place(st, params, cfg)
     st, sl = _rebuild(st, sl, dec)
     st = _exchange(st, sl, dec)
-    cfg = dec.local
     with halo.exchanging(_SlabExchange(slab=sl, dec=dec)):
         return _total_loads(cfg.coupling_method.prime(st, params, cfg)), sl
 

@@ -19,9 +19,11 @@ dx 0.02 m, 3840 water particles) cut into four slabs of equal counts along x:
   the artificial viscosity alpha at two relative steps (1e-2, 1e-3) agree with each other and
   with the gradient to 1e-5.
 
-The coupled wedge (``_WEDGE_SCRIPT``, float64): ``sliding_wedge`` at dx 0.03 m (1344 water
+The coupled wedge (``_WEDGE_SCRIPT``, float64): ``sliding_wedge`` at dx 0.03 m, 0.21 m deep (1632 water
 particles, boundary-particle coupling), the wedge launched at 1.5 m/s down the 40 degree slope so
-that it plunges ~12 cm into the water within 200 steps (fluid load ~25 N), three slabs with bounds
+that it plunges ~12 cm into the water within 200 steps (fluid load ~25 N; the launch is set on the
+built state, so the sharded prime must place the wedge's particles at its velocity, as ``prime`` does:
+the water touches the wedge's front from the first step), three slabs with bounds
 at x = 0.06 and 0.5 m, the first crossed by the wedge's front (x = 0 -> 0.09 m) in the water it
 pushes: water positions / velocities
 equal one device's to 1e-12 m / 1e-10 m/s, the wedge's centroid to 1e-12 m and its fluid load to
@@ -148,7 +150,7 @@ from rockjax.rollout import make_rollout
 from rockjax.driver import host_frame
 from rockjax.types import Kind
 
-sc = scenes.sliding_wedge(dx=0.03, slope_angle_deg=40.0, block_length=0.2, block_width=0.15, water_depth=0.2,
+sc = scenes.sliding_wedge(dx=0.03, slope_angle_deg=40.0, block_length=0.2, block_width=0.15, water_depth=0.21,
                           flat_length=0.6, flume_width=0.24, start_distance=0.0, coupling=Coupling.BOUNDARY_PARTICLES)
 th = math.radians(40.0)
 down = jnp.asarray([math.cos(th), 0.0, -math.sin(th)])

@@ -214,6 +214,8 @@ CASES = [
      r"sliding_wedge: coupling = penalty needs the acoustic time step.*BOUNDARY_PARTICLES"),
     ("block-substeps-zero", lambda t: rj.scenes.sliding_wedge(dx=0.05, block_substeps=0),
      r"sliding_wedge: block_substeps must be an integer >= 1"),
+    ("wedge-depth-not-whole-layers", lambda t: rj.scenes.sliding_wedge(dx=0.03),
+     r"sliding_wedge: water_depth = 0.4 m is not a whole number of dx = 0.03 m.*0.39 m deep.*still level"),
     # ---- time ----------------------------------------------------------------------------------
     ("t-end-nan", lambda t: rj.simulate(_incline(), t_end=math.nan), r"t_end must be a positive finite"),
     ("t-end-inf", lambda t: rj.simulate(_incline(), t_end=math.inf), r"t_end must be a positive finite"),

@@ -50,6 +50,7 @@ def test_rock_slope_builds_its_failure_mode(failure, regime, n_blocks, thickness
     (dict(column_spacing=0.0), "column_spacing"),
     (dict(rock_width=0.39), "rock_width"),
     (dict(block_density=1e-6), "block_density"),
+    (dict(water_depth=0.32), r"water_depth = 0.32 m is not a whole number of dx = 0.05 m.*0.3 m deep"),
 ])
 def test_rock_slope_refuses_bad_input(kw, pattern):
     with pytest.raises(ValueError, match=pattern):
