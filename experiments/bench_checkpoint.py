@@ -126,7 +126,7 @@ def run(dx: float, frames: int, out_path: str):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--dx", type=float, nargs="+", default=[0.04, 0.03])
+    ap.add_argument("--dx", type=float, nargs="+", default=[0.04, 0.025])
     ap.add_argument("--frames", type=int, default=6)
     ap.add_argument("--out", default=None)
     args = ap.parse_args()

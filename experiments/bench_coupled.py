@@ -93,7 +93,7 @@ def bench(dx: float, coupling: str, reps: int) -> dict:
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--dx", type=float, nargs="+", default=[0.04, 0.03, 0.02])
+    ap.add_argument("--dx", type=float, nargs="+", default=[0.04, 0.025, 0.02])
     ap.add_argument("--coupling", default="penalty", choices=["penalty", "boundary_particles", "boundary_integral"])
     ap.add_argument("--reps", type=int, default=15)
     a = ap.parse_args()

@@ -33,7 +33,7 @@ HERE = pathlib.Path(__file__).resolve().parent
 
 
 def run(*, slope: float, length: float, density: float, depth: float, dx: float, start: float, width: float,
-        friction: float, scheme: str = "wcsph") -> dict:
+        friction: float, scheme: str = "wcsph", cfl: float | None = None) -> dict:
     import rockjax as rj
     from rockjax.observables import impact_velocity, scene_observer
 
@@ -43,7 +43,9 @@ def run(*, slope: float, length: float, density: float, depth: float, dx: float,
     scene = rj.scenes.sliding_wedge(dx=dx, slope_angle_deg=slope, block_density=density, friction_angle_deg=friction,
                                     block_length=length, block_width=width - 2 * dx, water_depth=depth,
                                     flat_length=flat, flume_width=width, start_distance=start,
-                                    coupling=rj.Coupling.BOUNDARY_PARTICLES, h_factor=1.5, scheme=scheme)
+                                    coupling=rj.Coupling.BOUNDARY_PARTICLES, scheme=scheme,
+                                    h_factor=1.5 if scheme == "wcsph" else None,  # DFSPH: its own h (= dx)
+                                    cfl=cfl)
     y = 0.5 * width
     scene = scene.replace(meta=scene.meta.with_items(gauges=dict(
         names=[f"x={x:.2f}" for x in gx], xy=[[float(x), y] for x in gx], bottom_z=[-depth] * len(gx))))
@@ -79,11 +81,11 @@ def run(*, slope: float, length: float, density: float, depth: float, dx: float,
             a_M, x_aM = float(e[i]), float(x)
         trough = float(np.min(e[i:])) if i < e.size - 1 else 0.0
         H_M = max(H_M, float(e[i] - trough))
-    return dict(scheme=scheme, slope_deg=slope, block_length=length, block_height=H_w, thickness=s, density=density, depth=depth,
+    return dict(scheme=scheme, cfl=cfl, slope_deg=slope, block_length=length, block_height=H_w, thickness=s, density=density, depth=depth,
                 dx=dx, start_distance=start, flume_width=width, friction_deg=friction, impact_speed=Vs, F=F, S=S, M=M,
                 P=P, a_M=a_M, x_aM_over_h=None if x_aM is None else x_aM / depth, H_M=H_M, a_M_fit=a_fit,
                 H_M_fit=H_fit, a_ratio=a_M / a_fit, H_ratio=H_M / H_fit, x_M_fit_over_h=5.5 * math.sqrt(P),
-                n_fluid=scene.config.n_fluid, t_end=t_end, wall_s=wall, load=os.getloadavg()[0])
+                n_fluid=scene.config.n_fluid, h_over_dx=float(scene.params.fluid.h) / dx, dt=scene.config.dt, t_end=t_end, wall_s=wall, load=os.getloadavg()[0])
 
 
 def main():
@@ -97,10 +99,11 @@ def main():
     ap.add_argument("--width", type=float, default=0.2, help="flume width m (the wedge fills it but 1 dx a side)")
     ap.add_argument("--friction", type=float, default=10.0, help="wedge-slope friction angle, degrees")
     ap.add_argument("--scheme", default="wcsph", choices=["wcsph", "dfsph"])
+    ap.add_argument("--cfl", type=float, default=None, help="the scheme's CFL number (default its own)")
     ap.add_argument("--out", default=str(HERE / "results" / "impulse_waves.jsonl"))
     a = ap.parse_args()
     rec = run(slope=a.slope, length=a.length, density=a.density, depth=a.depth, dx=a.dx, start=a.start, width=a.width,
-              friction=a.friction, scheme=a.scheme)
+              friction=a.friction, scheme=a.scheme, cfl=a.cfl)
     emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown=rec)
 
 

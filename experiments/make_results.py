@@ -1432,6 +1432,32 @@ def sec_waves(doc: Doc):
         names = [f"{q['x_over_depth']:g} d: flux / paddle, H/S, flux / flux(H)" for q in recs[-1]["sections"]]
         doc.p(table(["dx [m]", "depth filled [m]", "wall visc.", "n_fluid", "behind", "compression", *names, "wall s",
                      "date"], rows))
+    recs = doc.records("impulse_waves.jsonl", "python experiments/impulse_waves.py --scheme SCHEME [--start S] "
+                       "[--slope A --length L] [--density RHO] [--dx DX]")
+    if recs is not None:
+        doc.p("Impulse waves from a rigid wedge sliding into a flume against Heller & Hager's (2010) fit "
+              "(`experiments/impulse_waves.py`: `sliding_wedge` spanning a 0.2 m wide flume but 1 dx a side, boundary-"
+              "particle coupling, water 0.2 m deep, friction 10 degrees, gauges every depth from 2 to 16 depths, maxima "
+              "before the beach's reflection returns). `P = F S^1/2 M^1/4 cos(6/7 alpha)^1/2` from the measured impact "
+              "speed (`F`), the wedge's thickness normal to the slope (`S`) and its mass per flume width (`M`); the fit "
+              "`a_M / h = 4/9 P^4/5`, `H_M / h = 5/9 P^4/5` (granular slides; a rigid block is not one). `x(a_M) / h`: "
+              "where the largest crest was met, against the fit's `5.5 P^1/2`.")
+        rows = [[r.get("scheme", "wcsph"), r["dx"], r.get("h_over_dx", "-"), r["slope_deg"], r["block_length"],
+                 r["density"], r["start_distance"], r["F"], r["S"], r["M"], r["P"], r["a_M"], r["a_M_fit"],
+                 r["a_ratio"], r["H_M"], r["H_M_fit"], r["H_ratio"], r["x_aM_over_h"], r["x_M_fit_over_h"],
+                 r["n_fluid"], r["wall_s"], r.get("date")] for r in recs]
+        doc.p(table(["scheme", "dx [m]", "h/dx", "alpha [deg]", "wedge L [m]", "rho_s", "start [m]", "F", "S", "M", "P",
+                     "a_M [m]", "a_M fit", "a_M / fit", "H_M [m]", "H_M fit", "H_M / fit", "x(a_M) / h", "x_M fit / h",
+                     "n_fluid", "wall s", "date"], rows))
+        import numpy as _np
+        for sch in sorted({r.get("scheme", "wcsph") for r in recs}):
+            rr = [r for r in recs if r.get("scheme", "wcsph") == sch and r["dx"] == 0.02]
+            if len(rr) >= 2:
+                a = _np.log([r["a_ratio"] for r in rr])
+                H = _np.log([r["H_ratio"] for r in rr])
+                doc.p(f"{sch} at dx 0.02 over {len(rr)} runs: a_M / fit geometric mean {_np.exp(a.mean()):.3f} "
+                      f"(range {_np.exp(a.min()):.3f}-{_np.exp(a.max()):.3f}), H_M / fit {_np.exp(H.mean()):.3f} "
+                      f"(range {_np.exp(H.min()):.3f}-{_np.exp(H.max()):.3f}).")
 
 
 def sec_rock_slope(doc: Doc):

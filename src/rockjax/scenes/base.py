@@ -220,9 +220,10 @@ def scheme_resolution(scheme: FluidScheme, h_factor: float | None, cfl: float | 
                       skin_factor: float | None = None) -> tuple[float, float, float]:
     """``(h_factor, cfl, skin_factor)``: the given values, or the scheme's own where None
     (``FluidScheme.default_h_factor``, ``default_cfl``, ``default_skin_factor``: WCSPH 1.3, 0.25
-    and 0.3; DFSPH its kernel's h / dx, 0.4 and 0.05)."""
-    return (scheme.default_h_factor if h_factor is None else h_factor,
-            scheme.default_cfl if cfl is None else cfl,
+    and 0.3; DFSPH its kernel's h / dx, 0.4 and 0.05), after ``scheme.check_resolution`` of the h / dx."""
+    h_factor = scheme.default_h_factor if h_factor is None else h_factor
+    scheme.check_resolution(h_factor)
+    return (h_factor, scheme.default_cfl if cfl is None else cfl,
             scheme.default_skin_factor if skin_factor is None else skin_factor)
 
 

@@ -140,6 +140,7 @@ def coupled_scene(*, name: str, dx: float | None, polyhedra: Sequence, positions
     if c0 is None:
         raise ValueError(f"{name}: c0 (speed of sound) is required for a scene with water")
     res = Resolution(dx, h_factor)
+    scheme.check_resolution(res.h_factor)
     params = water_params(res, c0=c0, alpha=alpha, nu=nu, delta=delta, wall_viscosity=wall_viscosity)
     params = params.replace(blocks=bparams)
     layers = res.wall_layers

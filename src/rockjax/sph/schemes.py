@@ -91,6 +91,10 @@ class FluidScheme(Term):
     def check_params(self, params) -> None:
         """Refuse or warn about params this scheme cannot run well (host side). Default: none."""
 
+    def check_resolution(self, h_factor: float) -> None:
+        """Refuse an ``h / dx`` this scheme cannot run (host side, at the scene's build; ValueError
+        naming the setting). Default: none."""
+
     def initial_density(self, pressure, *, rho0: float, c0: float):
         """Densities [n] kg/m^3 of a water column at rest under ``pressure`` [n] Pa (host, numpy),
         or None where the scheme sums its densities (they start at rho0)."""
@@ -299,6 +303,21 @@ class DFSPH(FluidScheme):
     @property
     def uses_nu(self) -> bool:
         return self.viscosity.uses_nu
+
+    def check_resolution(self, h_factor: float) -> None:
+        """Refuse a ``relaxation`` at or above the Jacobi sweeps' stability bound ``2 / lambda_max``
+        of this kernel at ``h = h_factor dx`` (``dfsph.jacobi_lambda_max``, the bulk lattice): a
+        tank at rest with the cubic spline at h = 1.5 dx (bound 0.27) blew up in its first step
+        at the default 0.4."""
+        from .dfsph import jacobi_lambda_max
+
+        lam = jacobi_lambda_max(self.kernel, float(h_factor))
+        if self.relaxation >= 2.0 / lam:
+            raise ValueError(
+                f"DFSPH: relaxation = {self.relaxation} is at or above the Jacobi sweeps' stability bound "
+                f"2 / lambda_max = {2.0 / lam:.3f} of the {self.kernel.name} kernel at h = {h_factor:g} dx "
+                f"(lambda_max = {lam:.3g}); use DFSPH(relaxation={0.9 * 2.0 / lam:.2f}) or a smaller h_factor "
+                f"(the kernel's own: {self.kernel.h_factor:g})")
 
     @property
     def default_h_factor(self) -> float:
