@@ -1,8 +1,11 @@
 """Impulse waves from a rigid block sliding into a flume, against Heller & Hager's (2010) fit.
 
 ``scenes.sliding_wedge`` with the wedge spanning the flume (one dx of gap each side: a 2D
-experiment, as in Heller & Hager's prismatic channel) and gauges every depth from 2 to 16 depths
-beyond the shoreline. Heller & Hager (2010, J. Waterway Port Coastal Ocean Eng. 136(3), 145-155)
+experiment, as in Heller & Hager's prismatic channel) and gauges every depth from 2 to 8 depths
+beyond the shoreline (``--gauges-to``), run to 2 s (``--t-end``): nothing guides the wedge sideways
+but the water in its 1 dx gaps, and after it stops at the toe it drifts into a side wall (at dx
+0.04 / 0.02 it crossed one at 1.6 / 2.2 s); the record keeps its sideways drift
+(``wedge_drift_y``). Heller & Hager (2010, J. Waterway Port Coastal Ocean Eng. 136(3), 145-155)
 fit the maximum near-field wave amplitude and height of granular slides with the impulse product
 
     P = F S^(1/2) M^(1/4) {cos[(6/7) alpha]}^(1/2),   a_M / h = (4/9) P^(4/5),   H_M / h = (5/9) P^(4/5),
@@ -16,6 +19,11 @@ before the beach reflection returns, H_M = the largest crest-to-following-trough
 their ratios to the fit. One JSON line per run, appended to ``results/impulse_waves.jsonl``.
 
     python experiments/impulse_waves.py --slope 45 --length 0.2 --density 2500 --depth 0.2 --dx 0.02
+    python experiments/impulse_waves.py --scheme dfsph --cfl 0.2      # DFSPH at its own h (= dx)
+
+WCSPH runs at h = 1.5 dx (the wave flumes' setting); DFSPH at its kernel's own h: at 1.5 dx its
+Jacobi sweeps diverge (``DFSPH.check_resolution``), and at its default CFL (0.4) the splash outran
+the list's skin (a stale list with a rebuild every step), hence ``--cfl``.
 """
 
 from __future__ import annotations
@@ -33,13 +41,14 @@ HERE = pathlib.Path(__file__).resolve().parent
 
 
 def run(*, slope: float, length: float, density: float, depth: float, dx: float, start: float, width: float,
-        friction: float, scheme: str = "wcsph", cfl: float | None = None) -> dict:
+        friction: float, scheme: str = "wcsph", cfl: float | None = None, t_end: float | None = None,
+        gauges_to: int = 8) -> dict:
     import rockjax as rj
     from rockjax.observables import impact_velocity, scene_observer
 
     g = 9.81
-    gx = np.arange(2, 17) * depth
-    flat = float(gx[-1] + 2 * depth)
+    gx = np.arange(2, int(gauges_to) + 1) * depth
+    flat = float(16 * depth + 2 * depth)  # the beach far enough that its reflection misses the window
     scene = rj.scenes.sliding_wedge(dx=dx, slope_angle_deg=slope, block_density=density, friction_angle_deg=friction,
                                     block_length=length, block_width=width - 2 * dx, water_depth=depth,
                                     flat_length=flat, flume_width=width, start_distance=start,
@@ -50,10 +59,12 @@ def run(*, slope: float, length: float, density: float, depth: float, dx: float,
     scene = scene.replace(meta=scene.meta.with_items(gauges=dict(
         names=[f"x={x:.2f}" for x in gx], xy=[[float(x), y] for x in gx], bottom_z=[-depth] * len(gx))))
     c = math.sqrt(g * depth)
-    t_end = 1.0 + (gx[-1] + 2 * depth) / c
+    t_end = 1.0 + (gx[-1] + 2 * depth) / c if t_end is None else t_end
     t0 = time.perf_counter()
     res = rj.simulate(scene, t_end=t_end, frame_dt=0.01, observe=scene_observer(scene.meta), progress=False)
     wall = time.perf_counter() - t0
+    by = np.asarray(res.frames["block_x"])[:, 0, 1]
+    drift = float(np.max(np.abs(by - by[0])))  # the wedge's sideways drift m (nothing guides it but the water)
     t = np.asarray(res.times)
     eta = np.asarray(res.observed["gauges"])
     th = math.radians(slope)
@@ -71,12 +82,14 @@ def run(*, slope: float, length: float, density: float, depth: float, dx: float,
     x_beach = scene.meta["x_beach"]
     a_M = H_M = 0.0
     x_aM = None
+    crests = []  # (x / h, the largest crest there) per gauge
     for j, x in enumerate(gx):
         keep = t < (x + 2 * (x_beach - x)) / c + 0.5  # before the reflection from the beach returns
         e = eta[keep, j]
         if e.size < 3:
             continue
         i = int(np.argmax(e))
+        crests.append([round(float(x) / depth, 3), float(e[i])])
         if e[i] > a_M:
             a_M, x_aM = float(e[i]), float(x)
         trough = float(np.min(e[i:])) if i < e.size - 1 else 0.0
@@ -85,7 +98,9 @@ def run(*, slope: float, length: float, density: float, depth: float, dx: float,
                 dx=dx, start_distance=start, flume_width=width, friction_deg=friction, impact_speed=Vs, F=F, S=S, M=M,
                 P=P, a_M=a_M, x_aM_over_h=None if x_aM is None else x_aM / depth, H_M=H_M, a_M_fit=a_fit,
                 H_M_fit=H_fit, a_ratio=a_M / a_fit, H_ratio=H_M / H_fit, x_M_fit_over_h=5.5 * math.sqrt(P),
-                n_fluid=scene.config.n_fluid, h_over_dx=float(scene.params.fluid.h) / dx, dt=scene.config.dt, t_end=t_end, wall_s=wall, load=os.getloadavg()[0])
+                crest_by_gauge=crests, a_M_from_4h=max([a for xh, a in crests if xh >= 4.0], default=None),
+                wedge_front_x_end=float(bx[-1, 0, 0]) + length / 3.0,  # the vertical front, L / 3 ahead of the centroid
+                wedge_drift_y=drift, n_fluid=scene.config.n_fluid, h_over_dx=float(scene.params.fluid.h) / dx, dt=scene.config.dt, t_end=t_end, wall_s=wall, load=os.getloadavg()[0])
 
 
 def main():
@@ -99,11 +114,15 @@ def main():
     ap.add_argument("--width", type=float, default=0.2, help="flume width m (the wedge fills it but 1 dx a side)")
     ap.add_argument("--friction", type=float, default=10.0, help="wedge-slope friction angle, degrees")
     ap.add_argument("--scheme", default="wcsph", choices=["wcsph", "dfsph"])
+    ap.add_argument("--t-end", type=float, default=2.0,
+                    help="s (the gauges to 8 depths see the first crest by then; the wedge drifts sideways after it stops)")
+    ap.add_argument("--gauges-to", type=int, default=8, help="the last gauge, in depths from the shoreline")
     ap.add_argument("--cfl", type=float, default=None, help="the scheme's CFL number (default its own)")
     ap.add_argument("--out", default=str(HERE / "results" / "impulse_waves.jsonl"))
     a = ap.parse_args()
     rec = run(slope=a.slope, length=a.length, density=a.density, depth=a.depth, dx=a.dx, start=a.start, width=a.width,
-              friction=a.friction, scheme=a.scheme, cfl=a.cfl)
+              friction=a.friction, scheme=a.scheme, cfl=a.cfl, t_end=a.t_end,
+              gauges_to=a.gauges_to)
     emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown=rec)
 
 

@@ -1432,23 +1432,45 @@ def sec_waves(doc: Doc):
         names = [f"{q['x_over_depth']:g} d: flux / paddle, H/S, flux / flux(H)" for q in recs[-1]["sections"]]
         doc.p(table(["dx [m]", "depth filled [m]", "wall visc.", "n_fluid", "behind", "compression", *names, "wall s",
                      "date"], rows))
+    recs = doc.records("wave_box.jsonl", "python experiments/wave_box.py --dx DX --variant VARIANT")
+    if recs is not None:
+        doc.p("The bulk damping without a paddle (`experiments/wave_box.py`): one wavelength of water 0.3 m deep "
+              "(kd ~ 1, periodic in x and y, a wall bed) started as a linear progressive wave of amplitude a (particles "
+              "on their Airy orbits, densities from the wave's pressure; c0 = 15 sqrt(g d) as in the piston flume), "
+              "run 8 periods; the surface's first Fourier mode from 64 gauges. `decay / L`: height lost per wavelength "
+              "of travel, `1 - exp(-mu L / c_g)` from the slope `-mu` of ln|mode| after the first period (issue 45's "
+              "target: <= 1 %); `Lamb / L`: `2 nu k^2` for the effective nu (alpha h c0 / 10 for Monaghan's term); "
+              "`bed / L`: a laminar Stokes layer of that nu on the bed (Hunt 1952; 0 for a free-slip bed); "
+              "`omega / theory`: the mode's frequency against sqrt(g k tanh kd); `|A| 1st T`: the mode's amplitude "
+              "after the first period over a.")
+        rows = [[r["variant"], r.get("diffusion", "fourtakas" if r["variant"] != "no-diffusion" else "none"), r["dx"],
+                 r["h_over_dx"], r["a_over_dx"], r["ka"], r["n_fluid"], r["nu_eff"],
+                 r["amp_first_period"], r["decay_per_period"], r["decay_per_wavelength"], r["lamb_per_wavelength"],
+                 r["bed_per_wavelength"], r["omega_over_theory"], r["wall_s"], r.get("date")] for r in recs]
+        doc.p(table(["variant", "diffusion", "dx [m]", "h/dx", "a/dx", "ka", "n_fluid", "nu eff. [m^2/s]", "|A| 1st T / a",
+                     "decay / T", "decay / L", "Lamb / L", "bed / L", "omega / theory", "wall s", "date"], rows))
     recs = doc.records("impulse_waves.jsonl", "python experiments/impulse_waves.py --scheme SCHEME [--start S] "
                        "[--slope A --length L] [--density RHO] [--dx DX]")
     if recs is not None:
         doc.p("Impulse waves from a rigid wedge sliding into a flume against Heller & Hager's (2010) fit "
               "(`experiments/impulse_waves.py`: `sliding_wedge` spanning a 0.2 m wide flume but 1 dx a side, boundary-"
-              "particle coupling, water 0.2 m deep, friction 10 degrees, gauges every depth from 2 to 16 depths, maxima "
+              "particle coupling, water 0.2 m deep, friction 10 degrees, gauges every depth from 2 to 8 depths, run to 2 s, maxima "
               "before the beach's reflection returns). `P = F S^1/2 M^1/4 cos(6/7 alpha)^1/2` from the measured impact "
               "speed (`F`), the wedge's thickness normal to the slope (`S`) and its mass per flume width (`M`); the fit "
               "`a_M / h = 4/9 P^4/5`, `H_M / h = 5/9 P^4/5` (granular slides; a rigid block is not one). `x(a_M) / h`: "
-              "where the largest crest was met, against the fit's `5.5 P^1/2`.")
+              "where the largest crest was met, against the fit's `5.5 P^1/2`; `a_M >= 4h`: the largest crest at the "
+              "gauges from 4 depths on (the first gauges stand in the splash just ahead of the wedge's final front, "
+              "~1-1.5 depths from the shoreline). `drift y`: the wedge's sideways drift by the end (nothing guides it "
+              "but the water in its 1 dx gaps; after it stops at the toe it drifts into a side wall within ~2 s).")
         rows = [[r.get("scheme", "wcsph"), r["dx"], r.get("h_over_dx", "-"), r["slope_deg"], r["block_length"],
                  r["density"], r["start_distance"], r["F"], r["S"], r["M"], r["P"], r["a_M"], r["a_M_fit"],
-                 r["a_ratio"], r["H_M"], r["H_M_fit"], r["H_ratio"], r["x_aM_over_h"], r["x_M_fit_over_h"],
-                 r["n_fluid"], r["wall_s"], r.get("date")] for r in recs]
+                 r["a_ratio"], r.get("a_M_from_4h", "-"),
+                 "-" if r.get("a_M_from_4h") is None else r["a_M_from_4h"] / r["a_M_fit"],
+                 r["H_M"], r["H_M_fit"], r["H_ratio"], r["x_aM_over_h"], r["x_M_fit_over_h"],
+                 r.get("wedge_drift_y", "-"), r["n_fluid"], r["wall_s"], r.get("date")] for r in recs]
         doc.p(table(["scheme", "dx [m]", "h/dx", "alpha [deg]", "wedge L [m]", "rho_s", "start [m]", "F", "S", "M", "P",
-                     "a_M [m]", "a_M fit", "a_M / fit", "H_M [m]", "H_M fit", "H_M / fit", "x(a_M) / h", "x_M fit / h",
-                     "n_fluid", "wall s", "date"], rows))
+                     "a_M [m]", "a_M fit", "a_M / fit", "a_M >= 4h [m]", "/ fit", "H_M [m]", "H_M fit", "H_M / fit",
+                     "x(a_M) / h", "x_M fit / h", "drift y [m]", "n_fluid", "wall s", "date"], rows))
         import numpy as _np
         for sch in sorted({r.get("scheme", "wcsph") for r in recs}):
             rr = [r for r in recs if r.get("scheme", "wcsph") == sch and r["dx"] == 0.02]

@@ -234,7 +234,9 @@ def _grow(config: Config, period: int, state: State, bits: int) -> tuple[Config,
     if bits & Status.NEIGHBOUR_STALE:
         if period == 1:
             raise SimulationError("neighbour list stale with a rebuild every step: particles move more than "
-                                  "skin/2 per step; the time step is too large", step=int(state.step), status=bits)
+                                  "skin/2 per step; the time step is too large for these speeds: rebuild the scene "
+                                  "with a smaller cfl= (DFSPH's velocity CFL: its dt scales with it) or a larger "
+                                  "skin_factor=", step=int(state.step), status=bits)
         period = max(1, period // 2)
     return config.replace(**changes), period
 
