@@ -1,19 +1,17 @@
 """A progressive linear wave in a periodic box: the bulk damping per wavelength, without a paddle.
 
-One wavelength of water (``depth`` 0.3 m, kh ~ 1, periodic in x and y, a wall bed) starts as a
-linear (Airy) progressive wave of amplitude ``a``: every particle displaced by the linear particle
-orbit ``xi = -a cosh(kz)/sinh(kd) sin(kx)``, ``zeta = a sinh(kz)/sinh(kd) cos(kx)`` and given the
-orbit velocity (``z`` the height of its rest position above the bed), its density from the pressure
-of linear theory at its displaced position. The first Fourier mode of the surface elevation (64
-gauges across the box, ``observables.gauge_elevation``) is fitted as ``A(t) exp(i omega t)``:
+``scenes.wave_box``: one wavelength of water (``depth`` 0.3 m, kd ~ 1, periodic in x and y, a wall
+bed) started as a linear (Airy) progressive wave of amplitude ``a`` (particles on their orbits,
+densities from the wave's pressure). The first Fourier mode of the surface elevation (64 gauges
+across the box, ``validation.wave_mode``) gives, from the second period on:
 
-* ``decay / period``: ``1 - exp(-mu T)`` from the slope ``-mu`` of ``ln |A|`` (a least-squares line
-  over the periods after the first); ``decay / wavelength``: the loss over one wavelength of
-  travel, ``1 - exp(-mu L / c_g)`` (what a flume shows along its length: issue 45's target is <= 1 %);
-* ``omega / theory``: the phase speed of the mode against ``sqrt(g k tanh(kd))`` (the dispersion
-  relation, i.e. the wavelength at a given period);
+* ``decay / period``: ``1 - exp(-mu T)`` from the slope ``-mu`` of ``ln |A|``; ``decay /
+  wavelength``: the loss over one wavelength of travel, ``1 - exp(-mu L / c_g)`` (what a flume
+  shows along its length: issue 45's target is <= 1 %);
+* ``omega / theory``: the mode's frequency against ``sqrt(g k tanh kd)`` (the dispersion relation,
+  i.e. the wavelength at a given period);
 * Lamb's viscous decay for the effective viscosity (``2 nu k^2``) and the bed's laminar Stokes layer
-  (Hunt 1952) are printed for scale, as in ``piston_decay.py``.
+  (Hunt 1952) for scale, as in ``piston_decay.py``.
 
 Variants (``--variant``): ``base`` (the flume's WCSPH: artificial alpha 0.02, Fourtakas diffusion,
 h = 1.5 dx, bed viscosity 1), ``laminar`` (Laminar nu = 1e-6), ``free-slip`` (bed viscosity 0),
@@ -25,7 +23,6 @@ h = 1.5 dx, bed viscosity 1), ``laminar`` (Laminar nu = 1e-6), ``free-slip`` (be
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import os
 import pathlib
@@ -39,56 +36,24 @@ DEPTH, G = 0.3, 9.81
 
 
 def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion: str | None = None):
-    import jax.numpy as jnp
-
+    """``scenes.wave_box`` with the variant's terms and constants."""
     import rockjax as rj
-    from rockjax.types import Kind
 
-    n_x = int(round(2 * math.pi * DEPTH / dx))  # one wavelength, a whole number of dx: kd ~ 1
-    L = n_x * dx
-    k = 2 * math.pi / L
-    width = 8 * dx if h_factor > 1.3 else 7 * dx  # the narrowest periodic width for the list (as the flumes)
-    scene = rj.scenes.hydrostatic_tank(dx=dx, length=L, width=width, depth=DEPTH, periodic_xy=True,
-                                       h_factor=h_factor, c0=15.0 * math.sqrt(G * DEPTH))  # the piston flume's c0
-    scheme = scene.config.scheme
-    fl = scene.params.fluid
+    kw, terms = {}, {}
     if variant == "laminar":
-        scheme = dataclasses.replace(scheme, viscosity=rj.sph.Laminar())
-        fl = fl.replace(nu=jnp.asarray(1e-6, fl.nu.dtype))
+        terms["viscosity"], kw["nu"] = rj.sph.Laminar(), 1e-6
     elif variant == "free-slip":
-        fl = fl.replace(wall_viscosity=jnp.asarray(0.0, fl.alpha.dtype))
+        kw["wall_viscosity"] = 0.0
     elif variant == "alpha0.005":
-        fl = fl.replace(alpha=jnp.asarray(0.005, fl.alpha.dtype))
+        kw["alpha"] = 0.005
     elif variant == "no-diffusion":
-        scheme = scheme.replace(diffusion=rj.sph.by_name("diffusion", "none"))
+        terms["diffusion"] = rj.sph.by_name("diffusion", "none")
     elif variant != "base":
         raise SystemExit(f"unknown variant {variant!r}")
     if diffusion is not None:
-        scheme = scheme.replace(diffusion=rj.sph.by_name("diffusion", diffusion))
-    scene = scene.replace(config=scene.config.replace(scheme=scheme), params=scene.params.replace(fluid=fl))
-
-    P = scene.state.particles
-    x = np.asarray(P.x).copy()
-    v = np.asarray(P.v).copy()
-    rho = np.asarray(P.rho).copy()
-    fluid = np.asarray(P.kind) == Kind.FLUID
-    omega = math.sqrt(G * k * math.tanh(k * DEPTH))
-    z = x[fluid, 2]  # rest height above the bed (the bed is z = 0)
-    ch, sh = np.cosh(k * z) / math.sinh(k * DEPTH), np.sinh(k * z) / math.sinh(k * DEPTH)
-    s, c = np.sin(k * x[fluid, 0]), np.cos(k * x[fluid, 0])
-    xi, zeta = -amplitude * ch * s, amplitude * sh * c
-    v[fluid, 0] = amplitude * omega * ch * c
-    v[fluid, 2] = amplitude * omega * sh * s
-    zd = z + zeta
-    p = float(fl.rho0) * G * (DEPTH - zd) + float(fl.rho0) * G * amplitude * np.cosh(k * z) / math.cosh(k * DEPTH) * c
-    dens = scheme.initial_density(p, rho0=float(fl.rho0), c0=float(fl.c0))
-    if dens is not None:
-        rho[fluid] = dens
-    x[fluid, 0] = np.mod(x[fluid, 0] + xi, L)
-    x[fluid, 2] = zd
-    P = P.replace(x=jnp.asarray(x, P.x.dtype), v=jnp.asarray(v, P.v.dtype), rho=jnp.asarray(rho, P.rho.dtype))
-    scene = scene.replace(state=scene.state.replace(particles=P))
-    return scene, dict(L=L, k=k, omega=omega, width=width)
+        terms["diffusion"] = rj.sph.by_name("diffusion", diffusion)
+    return rj.scenes.wave_box(dx=dx, depth=DEPTH, amplitude=amplitude, h_factor=h_factor, scheme=rj.WCSPH(**terms),
+                              **kw)
 
 
 def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: float, diffusion: str | None = None) -> dict:
@@ -96,13 +61,15 @@ def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: flo
 
     import rockjax as rj
     from rockjax.observables import gauge_elevation
+    from rockjax.validation import wave_mode
 
-    scene, w = build(dx, amplitude, variant, h_factor, diffusion)
-    L, k, omega = w["L"], w["k"], w["omega"]
+    scene = build(dx, amplitude, variant, h_factor, diffusion)
+    m = scene.meta
+    L, k, omega = m["wavelength"], m["k"], m["omega"]
     T = 2 * math.pi / omega
-    M = 64
-    gx = (np.arange(M) + 0.5) * L / M
-    pts = jnp.asarray(np.stack([gx, np.full(M, 0.5 * w["width"])], 1))
+    gx = np.asarray(m.gauges.xy)[:, 0]
+    M = len(gx)
+    pts = jnp.asarray(m.gauges.xy)
 
     def observe(state, params, config):
         return {"eta": gauge_elevation(state, params, config, pts, bottom_z=0.0, still_level=DEPTH)}
@@ -111,13 +78,9 @@ def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: flo
     res = rj.simulate(scene, t_end=periods * T, frame_dt=T / 16, observe=observe, progress=False)
     wall = time.perf_counter() - t0
     t = np.asarray(res.times)
-    eta = np.asarray(res.observed["eta"])
-    mode = 2.0 / M * (eta @ np.exp(-1j * k * gx))  # eta ~ Re(mode e^{ikx}); a progressive wave: mode ~ a e^{-i omega t}
-    amp = np.abs(mode)
-    keep = t >= T  # after the first period (the start's acoustic transient)
-    mu = -np.polyfit(t[keep], np.log(amp[keep]), 1)[0]
-    phase = np.unwrap(np.angle(mode[keep]))
-    omega_fit = -np.polyfit(t[keep], phase, 1)[0]
+    fit = wave_mode(t, res.observed["eta"], gx, k=k, t_start=T)  # after the first period (the start's transient)
+    amp, mu, omega_fit = fit["amplitude"], fit["mu"], fit["omega"]
+    keep = t >= T
     cg = 0.5 * omega / k * (1 + 2 * k * DEPTH / math.sinh(2 * k * DEPTH))
     fl = scene.params.fluid
     laminar = variant == "laminar"

@@ -7,6 +7,7 @@ that experiment as a periodic slab, ``dam_break_3d`` as a 3D tank with side wall
 energy of every frame of a run (both schemes) for the closed-tank energy checks.
 ``piston_transfer``, ``linear_wave`` and ``wave_height`` are the piston wave-maker check: linear
 theory's H/S (tabulated), the dispersion relation, and the height of a recorded wave train;
+``wave_mode`` the frequency and decay of the wave in a periodic box (``scenes.wave_box``);
 ``reflection`` splits gauge records into incident and reflected waves (Mansard & Funke 1980);
 ``solitary_profile`` and ``synolakis_runup`` are the solitary wave's closed forms;
 ``hoek_bray_regime`` is the block-on-a-plane failure mode (sliding, toppling, both, stable).
@@ -20,7 +21,7 @@ import pathlib
 import numpy as np
 
 __all__ = ["data_dir", "martin_moyce_n2_2", "dam_break_2d", "dam_break_3d", "front_history", "front_error",
-           "energy_history", "piston_transfer", "linear_wave", "wave_height", "wave_phase", "reflection",
+           "energy_history", "piston_transfer", "linear_wave", "wave_height", "wave_phase", "wave_mode", "reflection",
            "synolakis_runup", "solitary_profile"]
 
 GRAVITY = 9.81
@@ -142,6 +143,23 @@ def linear_wave(kh: float, depth: float, *, g: float = GRAVITY) -> dict:
     omega = math.sqrt(g * k * math.tanh(kh))
     cg = 0.5 * omega / k * (1.0 + 2.0 * kh / math.sinh(2.0 * kh))
     return dict(k=k, omega=omega, period=2 * math.pi / omega, c=omega / k, cg=cg)
+
+
+def wave_mode(t, eta, x, *, k: float, t_start: float = 0.0) -> dict:
+    """The first Fourier mode of surface records over one periodic wavelength (``scenes.wave_box``).
+
+    ``eta`` [F, M] m at gauges ``x`` [M] m spread evenly over the period ``2 pi / k``, frames ``t``
+    [F] s. The mode ``A(t) = (2 / M) sum_j eta_j exp(-i k x_j)`` (a progressive wave
+    ``a cos(kx - omega t)`` gives ``a exp(-i omega t)``); fitted from ``t_start`` on: ``omega``
+    [1/s] (the slope of its unwrapped phase) and ``mu`` [1/s] (of ``-ln |A|``, the amplitude's
+    decay rate). Returns ``amplitude`` [F] m, ``omega``, ``mu``."""
+    t, eta, x = np.asarray(t, float), np.asarray(eta, float), np.asarray(x, float)
+    mode = 2.0 / x.size * (eta @ np.exp(-1j * k * x))
+    amp = np.abs(mode)
+    keep = t >= t_start
+    mu = -np.polyfit(t[keep], np.log(amp[keep]), 1)[0]
+    omega = -np.polyfit(t[keep], np.unwrap(np.angle(mode[keep])), 1)[0]
+    return dict(amplitude=amp, omega=float(omega), mu=float(mu))
 
 
 def _harmonic_fit(t, eta, period: float, t_start: float, t_stop: float):

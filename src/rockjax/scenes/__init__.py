@@ -6,7 +6,7 @@ water before its run."""
 from .base import Resolution, Scene, check_param_values, check_params, stable_dt
 from .coupled import block_drop, block_on_incline, floating_box, piston_wavemaker, rock_slope, sliding_wedge, wave_flume
 from .fjord import fjord, fjord_estimate
-from .fluid import dam_break, hydrostatic_tank
+from .fluid import dam_break, hydrostatic_tank, wave_box
 from .meta import Gauges, RunupSlope, SceneMeta
 from .scenefile import load as load_file, load_scene
 from .settle import settle
@@ -16,6 +16,7 @@ BUILTIN = {
     "rock_slope": rock_slope,
     "dam_break": dam_break,
     "hydrostatic_tank": hydrostatic_tank,
+    "wave_box": wave_box,
     "piston_wavemaker": piston_wavemaker,
     "wave_flume": wave_flume,
     "floating_box": floating_box,
@@ -27,5 +28,5 @@ BUILTIN = {
 #: built-in scenes too large to build for a dry run: their cost from the geometry (``rockjax run NAME --dry-run``)
 ESTIMATES = {"fjord": fjord_estimate}
 
-__all__ = ["Scene", "SceneMeta", "Gauges", "RunupSlope", "Resolution", "BUILTIN", "ESTIMATES", "dam_break", "hydrostatic_tank", "sliding_wedge", "rock_slope", "piston_wavemaker", "wave_flume",
+__all__ = ["Scene", "SceneMeta", "Gauges", "RunupSlope", "Resolution", "BUILTIN", "ESTIMATES", "dam_break", "hydrostatic_tank", "wave_box", "sliding_wedge", "rock_slope", "piston_wavemaker", "wave_flume",
            "floating_box", "block_drop", "block_on_incline", "fjord", "fjord_estimate", "check_params", "check_param_values", "stable_dt", "load_scene", "load_file", "settle"]

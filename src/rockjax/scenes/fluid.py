@@ -1,4 +1,6 @@
-"""Fluid-only built-in scenes: the dam break (Martin & Moyce 1952) and the hydrostatic tank.
+"""Fluid-only built-in scenes: the dam break (Martin & Moyce 1952), the hydrostatic tank and a
+linear progressive wave in a periodic box (``wave_box``: a scheme's wave damping and dispersion
+without a wave maker).
 
 Geometry: x along the tank, y across, z up; the tank floor is z = 0 and its back wall x = 0.
 All lengths in metres.
@@ -13,7 +15,7 @@ import numpy as np
 from ..sph.schemes import WCSPH, FluidScheme, SeedScheme
 from .base import GRAVITY, Resolution, Scene, _positive, as_scheme, fluid_scene, scheme_resolution, lattice, tank_walls
 
-__all__ = ["dam_break", "hydrostatic_tank"]
+__all__ = ["dam_break", "hydrostatic_tank", "wave_box"]
 
 
 def _scheme_defaults(scheme, alpha, nu):
@@ -125,3 +127,72 @@ def hydrostatic_tank(*, dx: float = 0.02, length: float = 0.2, width: float = 0.
                        periodic=periodic, surface_z=depth, c0=c0, scheme=scheme, h_factor=h_factor, alpha=alpha, nu=nu,
                        delta=delta, wall_viscosity=wall_viscosity, skin_factor=skin_factor, rebuild_every=rebuild_every,
                        cfl=cfl, meta=meta)
+
+
+def wave_box(*, dx: float = 0.03, depth: float = 0.3, kd: float = 1.0, amplitude: float = 0.02, gauges: int = 64,
+             scheme: FluidScheme | str = WCSPH(), h_factor: float | None = 1.5, c0: float | None = None,
+             alpha: float | None = None, nu: float | None = None, delta: float = 0.1, wall_viscosity: float = 1.0,
+             cfl: float | None = None) -> Scene:
+    """One wavelength of water ``depth`` [m] deep, periodic in x and y over a wall bed (z = 0),
+    started as a linear (Airy) progressive wave of ``amplitude`` a [m] travelling towards +x.
+
+    The length is the whole number of ``dx`` nearest ``2 pi depth / kd`` (``meta["k"]`` is the wave
+    number it gives); ``depth`` must be a whole number of ``dx``. Every particle at rest height ``z``
+    above the bed is moved along its linear orbit, ``xi = -a cosh(kz) / sinh(kd) sin(kx)``,
+    ``zeta = a sinh(kz) / sinh(kd) cos(kx)``, given the orbit velocity ``a omega (cosh(kz) cos(kx),
+    0, sinh(kz) sin(kx)) / sinh(kd)`` and (WCSPH) the density of linear theory's pressure at its
+    displaced position. The first Fourier mode of the ``gauges`` surface elevations
+    (``meta["gauges"]``, evenly across the box at mid-width) then rotates at the dispersion
+    relation's ``omega = sqrt(g k tanh kd)`` (``meta["omega"]``) and decays at the scheme's damping:
+    what a wave flume loses per wavelength, without its paddle and beach
+    (``experiments/wave_box.py``). Defaults: the wave flumes' h = 1.5 dx and c0 = 15 sqrt(g depth).
+    """
+    import jax.numpy as jnp
+
+    from ..types import Kind
+
+    dx = _positive("wave_box: dx", dx)
+    for name, val in (("depth", depth), ("kd", kd), ("amplitude", amplitude)):
+        _positive(f"wave_box: {name}", val)
+    layers = depth / dx
+    if abs(layers - round(layers)) > 1e-6 * max(1.0, layers):
+        raise ValueError(f"wave_box: depth = {depth} m must be a whole number of dx = {dx} m (depth / dx = "
+                         f"{layers:.4g}); e.g. dx = {depth / max(3, round(layers)):.4g} m")
+    if not (isinstance(gauges, int) and gauges >= 4):
+        raise ValueError(f"wave_box: gauges must be an integer >= 4 (got {gauges!r})")
+    n_x = int(round(2 * math.pi * depth / kd / dx))
+    L = n_x * dx
+    k = 2 * math.pi / L
+    if amplitude * k > 0.3 or amplitude > 0.5 * depth:
+        raise ValueError(f"wave_box: amplitude = {amplitude} m is not a linear wave here (k a = {k * amplitude:.3g}, "
+                         f"a / depth = {amplitude / depth:.3g}); use k a <= 0.3 and a <= depth / 2")
+    scheme = as_scheme(scheme)
+    hf = scheme_resolution(scheme, h_factor, cfl)[0]
+    width = (8 if hf > 1.3 else 7) * dx  # the narrowest periodic width its list allows
+    scene = hydrostatic_tank(dx=dx, length=L, width=width, depth=depth, periodic_xy=True, scheme=scheme,
+                             h_factor=h_factor, c0=15.0 * math.sqrt(GRAVITY * depth) if c0 is None else c0,
+                             alpha=alpha, nu=nu, delta=delta, wall_viscosity=wall_viscosity, cfl=cfl)
+    P = scene.state.particles
+    x, v, rho = np.array(P.x), np.array(P.v), np.array(P.rho)
+    fluid = np.asarray(P.kind) == Kind.FLUID
+    omega = math.sqrt(GRAVITY * k * math.tanh(k * depth))
+    z = x[fluid, 2]
+    ch, sh = np.cosh(k * z) / math.sinh(k * depth), np.sinh(k * z) / math.sinh(k * depth)
+    s, c = np.sin(k * x[fluid, 0]), np.cos(k * x[fluid, 0])
+    zd = z + amplitude * sh * c
+    v[fluid, 0] = amplitude * omega * ch * c
+    v[fluid, 2] = amplitude * omega * sh * s
+    rho0, c0_ = float(scene.params.fluid.rho0), float(scene.params.fluid.c0)
+    p = rho0 * GRAVITY * (depth - zd) + rho0 * GRAVITY * amplitude * np.cosh(k * z) / math.cosh(k * depth) * c
+    dens = scheme.initial_density(p, rho0=rho0, c0=c0_)
+    if dens is not None:
+        rho[fluid] = dens
+    x[fluid, 0] = np.mod(x[fluid, 0] - amplitude * ch * s, L)
+    x[fluid, 2] = zd
+    P = P.replace(x=jnp.asarray(x, P.x.dtype), v=jnp.asarray(v, P.v.dtype), rho=jnp.asarray(rho, P.rho.dtype))
+    gx = (np.arange(gauges) + 0.5) * L / gauges
+    meta = scene.meta.with_items(name="wave_box", kd=k * depth, k=k, omega=omega, amplitude=amplitude,
+                                 wavelength=L, still_level=depth,
+                                 gauges=dict(names=[f"x={g:.3f}" for g in gx],
+                                             xy=[[float(g), 0.5 * width] for g in gx], bottom_z=[0.0] * gauges))
+    return scene.replace(state=scene.state.replace(particles=P), meta=meta)
