@@ -1444,10 +1444,10 @@ def sec_waves(doc: Doc):
               "`omega / theory`: the mode's frequency against sqrt(g k tanh kd); `|A| 1st T`: the mode's amplitude "
               "after the first period over a.")
         rows = [[r["variant"], r.get("diffusion", "fourtakas" if r["variant"] != "no-diffusion" else "none"), r["dx"],
-                 r["h_over_dx"], r["a_over_dx"], r["ka"], r["n_fluid"], r["nu_eff"],
+                 r["h_over_dx"], r.get("cfl", 0.25), r.get("c0_over_sqrt_gd", 15.0), r["a_over_dx"], r["ka"], r["n_fluid"], r["nu_eff"],
                  r["amp_first_period"], r["decay_per_period"], r["decay_per_wavelength"], r["lamb_per_wavelength"],
-                 r["bed_per_wavelength"], r["omega_over_theory"], r["wall_s"], r.get("date")] for r in recs]
-        doc.p(table(["variant", "diffusion", "dx [m]", "h/dx", "a/dx", "ka", "n_fluid", "nu eff. [m^2/s]", "|A| 1st T / a",
+                 r["bed_per_wavelength"], f"{r['omega_over_theory']:.4f}", r["wall_s"], r.get("date")] for r in recs]
+        doc.p(table(["variant", "diffusion", "dx [m]", "h/dx", "CFL", "c0 / sqrt(g d)", "a/dx", "ka", "n_fluid", "nu eff. [m^2/s]", "|A| 1st T / a",
                      "decay / T", "decay / L", "Lamb / L", "bed / L", "omega / theory", "wall s", "date"], rows))
     recs = doc.records("impulse_waves.jsonl", "python experiments/impulse_waves.py --scheme SCHEME [--start S] "
                        "[--slope A --length L] [--density RHO] [--dx DX]")

@@ -35,7 +35,8 @@ HERE = pathlib.Path(__file__).resolve().parent
 DEPTH, G = 0.3, 9.81
 
 
-def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion: str | None = None):
+def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion: str | None = None,
+          cfl: float | None = None, c0_factor: float = 15.0):
     """``scenes.wave_box`` with the variant's terms and constants."""
     import rockjax as rj
 
@@ -53,17 +54,18 @@ def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion:
     if diffusion is not None:
         terms["diffusion"] = rj.sph.by_name("diffusion", diffusion)
     return rj.scenes.wave_box(dx=dx, depth=DEPTH, amplitude=amplitude, h_factor=h_factor, scheme=rj.WCSPH(**terms),
-                              **kw)
+                              cfl=cfl, c0=c0_factor * math.sqrt(G * DEPTH), **kw)
 
 
-def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: float, diffusion: str | None = None) -> dict:
+def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: float, diffusion: str | None = None,
+        cfl: float | None = None, c0_factor: float = 15.0) -> dict:
     import jax.numpy as jnp
 
     import rockjax as rj
     from rockjax.observables import gauge_elevation
     from rockjax.validation import wave_mode
 
-    scene = build(dx, amplitude, variant, h_factor, diffusion)
+    scene = build(dx, amplitude, variant, h_factor, diffusion, cfl, c0_factor)
     m = scene.meta
     L, k, omega = m["wavelength"], m["k"], m["omega"]
     T = 2 * math.pi / omega
@@ -87,7 +89,8 @@ def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: flo
     nu_eff = float(fl.nu) if laminar else float(fl.alpha) * float(fl.h) * float(fl.c0) / 10.0
     delta = math.sqrt(2 * nu_eff / omega)
     mu_bed = (omega ** 3 * delta / (4 * G * cg * math.sinh(k * DEPTH) ** 2)) * cg if float(fl.wall_viscosity) > 0 else 0.0
-    return dict(experiment="wave_box", variant=variant, diffusion=scene.config.scheme.diffusion.name, dx=dx, h_over_dx=float(fl.h) / dx, amplitude=amplitude,
+    return dict(experiment="wave_box", variant=variant, diffusion=scene.config.scheme.diffusion.name, dx=dx,
+                cfl=scene.config.cfl, c0_over_sqrt_gd=c0_factor, dt=scene.config.dt, h_over_dx=float(fl.h) / dx, amplitude=amplitude,
                 ka=k * amplitude, a_over_dx=amplitude / dx, kd=k * DEPTH, L=L, periods=periods,
                 n_fluid=scene.config.n_fluid, amp_first_period=float(amp[keep][0]) / amplitude,
                 amp_last=float(amp[-1]) / amplitude, mu=mu, decay_per_period=1 - math.exp(-mu * T),
@@ -103,12 +106,14 @@ def main():
     ap.add_argument("--amplitude", type=float, default=0.02, help="a [m] (H = 2a; the piston runs' H/d ~ 0.13)")
     ap.add_argument("--variant", default="base", choices=["base", "laminar", "free-slip", "alpha0.005", "no-diffusion"])
     ap.add_argument("--periods", type=float, default=8.0)
+    ap.add_argument("--cfl", type=float, default=None, help="WCSPH's acoustic CFL (default the scheme's, 0.25)")
+    ap.add_argument("--c0-factor", type=float, default=15.0, help="c0 / sqrt(g d) (the piston flume's 15)")
     ap.add_argument("--diffusion", default=None, help="density diffusion by name (sph.by_name): none, molteni, "
                     "fourtakas (the scenes' default), fourtakas_surface, antuono")
     ap.add_argument("--h-factor", type=float, default=1.5)
     ap.add_argument("--out", default=str(HERE / "results" / "wave_box.jsonl"))
     a = ap.parse_args()
-    rec = run(a.dx, a.amplitude, a.variant, a.periods, a.h_factor, a.diffusion)
+    rec = run(a.dx, a.amplitude, a.variant, a.periods, a.h_factor, a.diffusion, a.cfl, a.c0_factor)
     emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown={k: v for k, v in rec.items() if k != "amp_series"})
 
 
