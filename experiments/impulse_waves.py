@@ -82,23 +82,24 @@ def run(*, slope: float, length: float, density: float, depth: float, dx: float,
     x_beach = scene.meta["x_beach"]
     a_M = H_M = 0.0
     x_aM = None
-    crests = []  # (x / h, the largest crest there) per gauge
+    crests = []  # (x / h, the largest crest there, the height from it to the following trough) per gauge
     for j, x in enumerate(gx):
         keep = t < (x + 2 * (x_beach - x)) / c + 0.5  # before the reflection from the beach returns
         e = eta[keep, j]
         if e.size < 3:
             continue
         i = int(np.argmax(e))
-        crests.append([round(float(x) / depth, 3), float(e[i])])
+        trough = float(np.min(e[i:])) if i < e.size - 1 else 0.0
+        crests.append([round(float(x) / depth, 3), float(e[i]), float(e[i] - trough)])
         if e[i] > a_M:
             a_M, x_aM = float(e[i]), float(x)
-        trough = float(np.min(e[i:])) if i < e.size - 1 else 0.0
         H_M = max(H_M, float(e[i] - trough))
     return dict(scheme=scheme, cfl=cfl, slope_deg=slope, block_length=length, block_height=H_w, thickness=s, density=density, depth=depth,
                 dx=dx, start_distance=start, flume_width=width, friction_deg=friction, impact_speed=Vs, F=F, S=S, M=M,
                 P=P, a_M=a_M, x_aM_over_h=None if x_aM is None else x_aM / depth, H_M=H_M, a_M_fit=a_fit,
                 H_M_fit=H_fit, a_ratio=a_M / a_fit, H_ratio=H_M / H_fit, x_M_fit_over_h=5.5 * math.sqrt(P),
-                crest_by_gauge=crests, a_M_from_4h=max([a for xh, a in crests if xh >= 4.0], default=None),
+                crest_by_gauge=crests, a_M_from_4h=max([c[1] for c in crests if c[0] >= 4.0], default=None),
+                H_M_from_4h=max([c[2] for c in crests if c[0] >= 4.0 and len(c) > 2], default=None),
                 wedge_front_x_end=float(bx[-1, 0, 0]) + length / 3.0,  # the vertical front, L / 3 ahead of the centroid
                 wedge_drift_y=drift, n_fluid=scene.config.n_fluid, h_over_dx=float(scene.params.fluid.h) / dx, dt=scene.config.dt, t_end=t_end, wall_s=wall, load=os.getloadavg()[0])
 

@@ -1459,18 +1459,20 @@ def sec_waves(doc: Doc):
               "speed (`F`), the wedge's thickness normal to the slope (`S`) and its mass per flume width (`M`); the fit "
               "`a_M / h = 4/9 P^4/5`, `H_M / h = 5/9 P^4/5` (granular slides; a rigid block is not one). `x(a_M) / h`: "
               "where the largest crest was met, against the fit's `5.5 P^1/2`; `a_M >= 4h`: the largest crest at the "
-              "gauges from 4 depths on (the first gauges stand in the splash just ahead of the wedge's final front, "
-              "~1-1.5 depths from the shoreline). `drift y`: the wedge's sideways drift by the end (nothing guides it "
+              "gauges from 4 depths on, `H_M >= 4h` likewise (the gauges at 2-3 depths stand over or just ahead of "
+              "the wedge's final front, `front end`, 2-2.7 depths from the shoreline). `drift y`: the wedge's sideways drift by the end (nothing guides it "
               "but the water in its 1 dx gaps; after it stops at the toe it drifts into a side wall within ~2 s).")
         rows = [[r.get("scheme", "wcsph"), r["dx"], r.get("h_over_dx", "-"), r["slope_deg"], r["block_length"],
                  r["density"], r["start_distance"], r["F"], r["S"], r["M"], r["P"], r["a_M"], r["a_M_fit"],
                  r["a_ratio"], r.get("a_M_from_4h", "-"),
                  "-" if r.get("a_M_from_4h") is None else r["a_M_from_4h"] / r["a_M_fit"],
-                 r["H_M"], r["H_M_fit"], r["H_ratio"], r["x_aM_over_h"], r["x_M_fit_over_h"],
+                 r["H_M"], r["H_M_fit"], r["H_ratio"], r.get("H_M_from_4h", "-"),
+                 "-" if r.get("H_M_from_4h") is None else r["H_M_from_4h"] / r["H_M_fit"],
+                 r["x_aM_over_h"], r["x_M_fit_over_h"], r.get("wedge_front_x_end", "-"),
                  r.get("wedge_drift_y", "-"), r["n_fluid"], r["wall_s"], r.get("date")] for r in recs]
         doc.p(table(["scheme", "dx [m]", "h/dx", "alpha [deg]", "wedge L [m]", "rho_s", "start [m]", "F", "S", "M", "P",
                      "a_M [m]", "a_M fit", "a_M / fit", "a_M >= 4h [m]", "/ fit", "H_M [m]", "H_M fit", "H_M / fit",
-                     "x(a_M) / h", "x_M fit / h", "drift y [m]", "n_fluid", "wall s", "date"], rows))
+                     "H_M >= 4h [m]", "/ fit", "x(a_M) / h", "x_M fit / h", "front end [m]", "drift y [m]", "n_fluid", "wall s", "date"], rows))
         import numpy as _np
         for sch in sorted({r.get("scheme", "wcsph") for r in recs}):
             rr = [r for r in recs if r.get("scheme", "wcsph") == sch and r["dx"] == 0.02]
