@@ -1438,16 +1438,16 @@ def sec_waves(doc: Doc):
               "(kd ~ 1, periodic in x and y, a wall bed) started as a linear progressive wave of amplitude a (particles "
               "on their Airy orbits, densities from the wave's pressure; c0 = 15 sqrt(g d) as in the piston flume), "
               "run 8 periods; the surface's first Fourier mode from 64 gauges. `decay / L`: height lost per wavelength "
-              "of travel, `1 - exp(-mu L / c_g)` from the slope `-mu` of ln|mode| after the first period (issue 45's "
+              "of travel, `1 - exp(-mu L / c_g)` from the slope `-mu` of ln(mode amplitude) after the first period (issue 45's "
               "target: <= 1 %); `Lamb / L`: `2 nu k^2` for the effective nu (alpha h c0 / 10 for Monaghan's term); "
               "`bed / L`: a laminar Stokes layer of that nu on the bed (Hunt 1952; 0 for a free-slip bed); "
-              "`omega / theory`: the mode's frequency against sqrt(g k tanh kd); `|A| 1st T`: the mode's amplitude "
-              "after the first period over a.")
+              "`omega / theory`: the mode's frequency against sqrt(g k tanh kd); `mode after 1 T`: its amplitude after "
+              "the first period over a. `scenes.wave_box` builds the box.")
         rows = [[r["variant"], r.get("diffusion", "fourtakas" if r["variant"] != "no-diffusion" else "none"), r["dx"],
                  r["h_over_dx"], r.get("cfl", 0.25), r.get("c0_over_sqrt_gd", 15.0), r["a_over_dx"], r["ka"], r["n_fluid"], r["nu_eff"],
                  r["amp_first_period"], r["decay_per_period"], r["decay_per_wavelength"], r["lamb_per_wavelength"],
                  r["bed_per_wavelength"], f"{r['omega_over_theory']:.4f}", r["wall_s"], r.get("date")] for r in recs]
-        doc.p(table(["variant", "diffusion", "dx [m]", "h/dx", "CFL", "c0 / sqrt(g d)", "a/dx", "ka", "n_fluid", "nu eff. [m^2/s]", "|A| 1st T / a",
+        doc.p(table(["variant", "diffusion", "dx [m]", "h/dx", "CFL", "c0 / sqrt(g d)", "a/dx", "ka", "n_fluid", "nu eff. [m^2/s]", "mode after 1 T / a",
                      "decay / T", "decay / L", "Lamb / L", "bed / L", "omega / theory", "wall s", "date"], rows))
     recs = doc.records("impulse_waves.jsonl", "python experiments/impulse_waves.py --scheme SCHEME [--start S] "
                        "[--slope A --length L] [--density RHO] [--dx DX]")
