@@ -94,14 +94,16 @@ def run(*, slope: float, length: float, density: float, depth: float, dx: float,
         if e[i] > a_M:
             a_M, x_aM = float(e[i]), float(x)
         H_M = max(H_M, float(e[i] - trough))
-    return dict(scheme=scheme, cfl=cfl, slope_deg=slope, block_length=length, block_height=H_w, thickness=s, density=density, depth=depth,
-                dx=dx, start_distance=start, flume_width=width, friction_deg=friction, impact_speed=Vs, F=F, S=S, M=M,
+    return dict(scheme=scheme, cfl=cfl, slope_deg=slope, block_length=length, block_height=H_w, thickness=s,
+                density=density, depth=depth, dx=dx, start_distance=start, flume_width=width, friction_deg=friction,
+                impact_speed=Vs, F=F, S=S, M=M,
                 P=P, a_M=a_M, x_aM_over_h=None if x_aM is None else x_aM / depth, H_M=H_M, a_M_fit=a_fit,
                 H_M_fit=H_fit, a_ratio=a_M / a_fit, H_ratio=H_M / H_fit, x_M_fit_over_h=5.5 * math.sqrt(P),
                 crest_by_gauge=crests, a_M_from_4h=max([c[1] for c in crests if c[0] >= 4.0], default=None),
                 H_M_from_4h=max([c[2] for c in crests if c[0] >= 4.0 and len(c) > 2], default=None),
                 wedge_front_x_end=float(bx[-1, 0, 0]) + length / 3.0,  # the vertical front, L / 3 ahead of the centroid
-                wedge_drift_y=drift, n_fluid=scene.config.n_fluid, h_over_dx=float(scene.params.fluid.h) / dx, dt=scene.config.dt, t_end=t_end, wall_s=wall, load=os.getloadavg()[0])
+                wedge_drift_y=drift, n_fluid=scene.config.n_fluid, h_over_dx=float(scene.params.fluid.h) / dx,
+                dt=scene.config.dt, t_end=t_end, wall_s=wall, load=os.getloadavg()[0])
 
 
 def main():
@@ -116,7 +118,8 @@ def main():
     ap.add_argument("--friction", type=float, default=10.0, help="wedge-slope friction angle, degrees")
     ap.add_argument("--scheme", default="wcsph", choices=["wcsph", "dfsph"])
     ap.add_argument("--t-end", type=float, default=2.0,
-                    help="s (the gauges to 8 depths see the first crest by then; the wedge drifts sideways after it stops)")
+                    help="s (the gauges to 8 depths see the first crest by then; the wedge drifts sideways "
+                    "after it stops)")
     ap.add_argument("--gauges-to", type=int, default=8, help="the last gauge, in depths from the shoreline")
     ap.add_argument("--cfl", type=float, default=None, help="the scheme's CFL number (default its own)")
     ap.add_argument("--out", default=str(HERE / "results" / "impulse_waves.jsonl"))

@@ -15,7 +15,8 @@ across the box, ``validation.wave_mode``) gives, from the second period on:
 
 Variants (``--variant``): ``base`` (the flume's WCSPH: artificial alpha 0.02, Fourtakas diffusion,
 h = 1.5 dx, bed viscosity 1), ``laminar`` (Laminar nu = 1e-6), ``free-slip`` (bed viscosity 0),
-``alpha0.005``, ``no-diffusion``; ``--diffusion NAME`` replaces the density diffusion. One JSON line per run to ``results/wave_box.jsonl``.
+``alpha0.005``, ``no-diffusion``; ``--diffusion NAME`` replaces the density diffusion; ``--cfl``,
+``--c0-factor``, ``--h-factor``. One JSON line per run to ``results/wave_box.jsonl``.
 
     python experiments/wave_box.py --dx 0.03 --variant base --periods 8
 """
@@ -88,9 +89,11 @@ def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: flo
     laminar = variant == "laminar"
     nu_eff = float(fl.nu) if laminar else float(fl.alpha) * float(fl.h) * float(fl.c0) / 10.0
     delta = math.sqrt(2 * nu_eff / omega)
-    mu_bed = (omega ** 3 * delta / (4 * G * cg * math.sinh(k * DEPTH) ** 2)) * cg if float(fl.wall_viscosity) > 0 else 0.0
+    no_slip = float(fl.wall_viscosity) > 0
+    mu_bed = omega ** 3 * delta / (4 * G * cg * math.sinh(k * DEPTH) ** 2) * cg if no_slip else 0.0
     return dict(experiment="wave_box", variant=variant, diffusion=scene.config.scheme.diffusion.name, dx=dx,
-                cfl=scene.config.cfl, c0_over_sqrt_gd=c0_factor, dt=scene.config.dt, h_over_dx=float(fl.h) / dx, amplitude=amplitude,
+                cfl=scene.config.cfl, c0_over_sqrt_gd=c0_factor, dt=scene.config.dt, h_over_dx=float(fl.h) / dx,
+                amplitude=amplitude,
                 ka=k * amplitude, a_over_dx=amplitude / dx, kd=k * DEPTH, L=L, periods=periods,
                 n_fluid=scene.config.n_fluid, amp_first_period=float(amp[keep][0]) / amplitude,
                 amp_last=float(amp[-1]) / amplitude, mu=mu, decay_per_period=1 - math.exp(-mu * T),
