@@ -216,6 +216,19 @@ def stable_dt(params: Params, *, scheme: FluidScheme, cfl: float = 0.25) -> floa
     return scheme.stable_dt(params, cfl=cfl)
 
 
+def whole_layers(name: str, field: str, depth: float, dx: float, users: str) -> None:
+    """Refuse a water ``depth`` (option ``field``) that is not a whole number of ``dx`` (ValueError
+    naming both): water is filled in whole lattice layers from its bed, so 0.3 m at dx 0.04 would be
+    0.28 m of water under a still level (gauges, run-up, wave generators: ``users``) that takes 0.3 m."""
+    layers = depth / dx
+    if abs(layers - round(layers)) > 1e-6 * max(1.0, layers):
+        filled = math.floor(layers + 1e-9) * dx
+        raise ValueError(f"{name}: {field} = {depth} m is not a whole number of dx = {dx} m "
+                         f"({field} / dx = {layers:.4g}): the water is filled in whole lattice layers, "
+                         f"{filled:.4g} m deep, while {users} take {depth} m; "
+                         f"choose dx = {field} / n (e.g. dx = {depth / max(1, round(layers)):.4g} m)")
+
+
 def scheme_resolution(scheme: FluidScheme, h_factor: float | None, cfl: float | None,
                       skin_factor: float | None = None) -> tuple[float, float, float]:
     """``(h_factor, cfl, skin_factor)``: the given values, or the scheme's own where None

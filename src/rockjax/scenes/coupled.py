@@ -22,7 +22,7 @@ import numpy as np
 from ..sph.schemes import WCSPH, FluidScheme
 from ..sph.viscosity import Laminar
 from ..types import Capacities, Config, Coupling, CouplingParams, State, float_dtype
-from .base import GRAVITY, Resolution, Scene, _ceil8, _density, _lengths, _positive, as_scheme, make_state, particle_layout, scheme_resolution, stable_dt, water_params
+from .base import GRAVITY, Resolution, Scene, _ceil8, whole_layers, _density, _lengths, _positive, as_scheme, make_state, particle_layout, scheme_resolution, stable_dt, water_params
 from .block_sampling import sample_block_particles, submerged_pair_count
 from .meta import SceneMeta
 from .shapes import fill, plane, shell
@@ -234,23 +234,10 @@ def _flume_walls_and_water(*, dx, layers, halfspaces, water_halfspaces, lo, hi):
     return water, walls
 
 
-def _whole_layers(name: str, water_depth: float, dx: float, users: str) -> None:
-    """Refuse a ``water_depth`` that is not a whole number of ``dx`` (ValueError naming both): a flume's
-    water is filled in whole lattice layers from its bed, so 0.3 m at dx 0.04 would be 0.28 m of water
-    under a still level (gauges, run-up, wave generators: ``users``) that takes 0.3 m."""
-    layers = water_depth / dx
-    if abs(layers - round(layers)) > 1e-6 * max(1.0, layers):
-        filled = math.floor(layers + 1e-9) * dx
-        raise ValueError(f"{name}: water_depth = {water_depth} m is not a whole number of dx = {dx} m "
-                         f"(water_depth / dx = {layers:.4g}): the water is filled in whole lattice layers, "
-                         f"{filled:.4g} m deep, while {users} take {water_depth} m; "
-                         f"choose dx = water_depth / n (e.g. dx = {water_depth / max(1, round(layers)):.4g} m)")
-
-
 def _check_slide_flume(name, *, dx, slope_angle_deg, far_slope_deg, water_depth, flume_width, width) -> None:
     """Refuse what ``_slide_flume`` cannot build (ValueError naming ``name``'s option): slopes outside
     [5, 60] degrees, a slide ``width = (option, value, what)`` leaving < 1 dx beside it in the flume,
-    a depth of fewer than 4 particles or not a whole number of dx (``_whole_layers``)."""
+    a depth of fewer than 4 particles or not a whole number of dx (``base.whole_layers``)."""
     for key, angle in (("slope_angle_deg", slope_angle_deg), ("far_slope_deg", far_slope_deg)):
         if not 5.0 <= angle <= 60.0:
             raise ValueError(f"{name}: {key} must be in [5, 60] degrees (got {angle})")
@@ -260,7 +247,7 @@ def _check_slide_flume(name, *, dx, slope_angle_deg, far_slope_deg, water_depth,
                          f"(flume_width {flume_width} m); make the flume wider or the {what} narrower")
     if water_depth < 4 * dx:
         raise ValueError(f"{name}: water_depth must hold >= 4 particles; use dx <= {water_depth / 4:.4g} m")
-    _whole_layers(name, water_depth, dx, "the still level (gauges, run-up)")
+    whole_layers(name, "water_depth", water_depth, dx, "the still level (gauges, run-up)")
 
 
 def _slide_flume(*, dx, slope_angle_deg, water_depth, flat_length, far_slope_deg, flume_width, up, reach, z_top,
@@ -643,7 +630,7 @@ def piston_wavemaker(*, dx: float = 0.025, stroke: float = 0.05, period: float =
     for nm, v in (("stroke", stroke), ("period", period), ("water_depth", water_depth),
                   ("flat_length", flat_length), ("beach_slope", beach_slope), ("flume_width", flume_width)):
         _positive(f"piston_wavemaker: {nm}", v)
-    _whole_layers("piston_wavemaker", water_depth, dx, "the gauges and the wave generators")
+    whole_layers("piston_wavemaker", "water_depth", water_depth, dx, "the gauges and the wave generators")
     if not (math.isfinite(ramp_periods) and ramp_periods >= 0):
         raise ValueError(f"piston_wavemaker: ramp_periods must be a finite number >= 0 (got {ramp_periods})")
     blocks = _blocks_api()

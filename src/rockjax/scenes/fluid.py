@@ -13,7 +13,8 @@ import math
 import numpy as np
 
 from ..sph.schemes import WCSPH, FluidScheme, SeedScheme
-from .base import GRAVITY, Resolution, Scene, _positive, as_scheme, fluid_scene, scheme_resolution, lattice, tank_walls
+from .base import (GRAVITY, Resolution, Scene, _positive, as_scheme, fluid_scene, lattice, scheme_resolution,
+                   tank_walls, whole_layers)
 
 __all__ = ["dam_break", "hydrostatic_tank", "wave_box"]
 
@@ -154,10 +155,7 @@ def wave_box(*, dx: float = 0.03, depth: float = 0.3, kd: float = 1.0, amplitude
     dx = _positive("wave_box: dx", dx)
     for name, val in (("depth", depth), ("kd", kd), ("amplitude", amplitude)):
         _positive(f"wave_box: {name}", val)
-    layers = depth / dx
-    if abs(layers - round(layers)) > 1e-6 * max(1.0, layers):
-        raise ValueError(f"wave_box: depth = {depth} m must be a whole number of dx = {dx} m (depth / dx = "
-                         f"{layers:.4g}); e.g. dx = {depth / max(3, round(layers)):.4g} m")
+    whole_layers("wave_box", "depth", depth, dx, "the gauges and the wave")
     if not (isinstance(gauges, int) and gauges >= 4):
         raise ValueError(f"wave_box: gauges must be an integer >= 4 (got {gauges!r})")
     n_x = int(round(2 * math.pi * depth / kd / dx))
