@@ -2,9 +2,11 @@
 
 ``scenes.sliding_wedge`` with the wedge spanning the flume (one dx of gap each side: a 2D
 experiment, as in Heller & Hager's prismatic channel) and gauges every depth from 2 to 8 depths
-beyond the shoreline (``--gauges-to``), run to 2 s (``--t-end``): nothing guides the wedge sideways
-but the water in its 1 dx gaps, and after it stops at the toe it drifts into a side wall (at dx
-0.04 / 0.02 it crossed one at 1.6 / 2.2 s); the record keeps its sideways drift
+beyond the shoreline (``--gauges-to``), run to 2 s (``--t-end``). The wedge is guided
+(``sliding_wedge(guided=True)``: its sideways translation and its rotations about x and z
+locked, as a slide on a laboratory flume's rails); ``--unguided`` leaves it free, and then only
+the water in its 1 dx gaps holds it: after it stops at the toe it drifts into a side wall (at dx
+0.04 / 0.02 it crossed one at 1.6 / 2.2 s). The record keeps its sideways drift
 (``wedge_drift_y``). Heller & Hager (2010, J. Waterway Port Coastal Ocean Eng. 136(3), 145-155)
 fit the maximum near-field wave amplitude and height of granular slides with the impulse product
 
@@ -42,7 +44,7 @@ HERE = pathlib.Path(__file__).resolve().parent
 
 def run(*, slope: float, length: float, density: float, depth: float, dx: float, start: float, width: float,
         friction: float, scheme: str = "wcsph", cfl: float | None = None, t_end: float | None = None,
-        gauges_to: int = 8) -> dict:
+        gauges_to: int = 8, guided: bool = True) -> dict:
     import rockjax as rj
     from rockjax.observables import impact_velocity, scene_observer
 
@@ -54,7 +56,7 @@ def run(*, slope: float, length: float, density: float, depth: float, dx: float,
                                     flat_length=flat, flume_width=width, start_distance=start,
                                     coupling=rj.Coupling.BOUNDARY_PARTICLES, scheme=scheme,
                                     h_factor=1.5 if scheme == "wcsph" else None,  # DFSPH: its own h (= dx)
-                                    cfl=cfl)
+                                    cfl=cfl, guided=guided)
     y = 0.5 * width
     scene = scene.replace(meta=scene.meta.with_items(gauges=dict(
         names=[f"x={x:.2f}" for x in gx], xy=[[float(x), y] for x in gx], bottom_z=[-depth] * len(gx))))
@@ -94,7 +96,7 @@ def run(*, slope: float, length: float, density: float, depth: float, dx: float,
         if e[i] > a_M:
             a_M, x_aM = float(e[i]), float(x)
         H_M = max(H_M, float(e[i] - trough))
-    return dict(scheme=scheme, cfl=cfl, slope_deg=slope, block_length=length, block_height=H_w, thickness=s,
+    return dict(scheme=scheme, cfl=cfl, guided=guided, slope_deg=slope, block_length=length, block_height=H_w, thickness=s,
                 density=density, depth=depth, dx=dx, start_distance=start, flume_width=width, friction_deg=friction,
                 impact_speed=Vs, F=F, S=S, M=M,
                 P=P, a_M=a_M, x_aM_over_h=None if x_aM is None else x_aM / depth, H_M=H_M, a_M_fit=a_fit,
@@ -122,11 +124,12 @@ def main():
                     "after it stops)")
     ap.add_argument("--gauges-to", type=int, default=8, help="the last gauge, in depths from the shoreline")
     ap.add_argument("--cfl", type=float, default=None, help="the scheme's CFL number (default its own)")
+    ap.add_argument("--unguided", action="store_true", help="leave the wedge free sideways (no locked DOF)")
     ap.add_argument("--out", default=str(HERE / "results" / "impulse_waves.jsonl"))
     a = ap.parse_args()
     rec = run(slope=a.slope, length=a.length, density=a.density, depth=a.depth, dx=a.dx, start=a.start, width=a.width,
               friction=a.friction, scheme=a.scheme, cfl=a.cfl, t_end=a.t_end,
-              gauges_to=a.gauges_to)
+              gauges_to=a.gauges_to, guided=not a.unguided)
     emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown=rec)
 
 

@@ -49,7 +49,7 @@ def run(config, state, params, *, dt, n_steps, gravity=(0.0, 0.0, -9.81), every=
 
 
 def incline_scene(*, theta_deg, b, h, phi_deg, kn=1e6, ks=1e6, zeta=0.2, width=0.2, density=2650.0,
-                  s0=-0.5, lift=None, v0=None, law=None):
+                  s0=-0.5, lift=None, v0=None, law=None, locked=None):
     """A FIXED ``slope`` (theta) and a DYNAMIC box (b along the slope, ``width`` across, h normal to it).
 
     The box rests on the slope with its base centre ``s0`` m along the down-slope direction from
@@ -57,7 +57,8 @@ def incline_scene(*, theta_deg, b, h, phi_deg, kn=1e6, ks=1e6, zeta=0.2, width=0
     it starts near equilibrium), or lifted by ``lift`` m if given.  The static config fields that
     depend on sizes are fixed so that every incline shares one compiled rollout.
 
-    ``law``: the contact law (default ``PenaltyCoulomb()``).
+    ``law``: the contact law (default ``PenaltyCoulomb()``). ``locked``: the box's locked degrees
+    of freedom (``make_blocks(locked=...)``).
 
     Returns ``(config, params, state, down [3], normal [3])``.
     """
@@ -78,6 +79,7 @@ def incline_scene(*, theta_deg, b, h, phi_deg, kn=1e6, ks=1e6, zeta=0.2, width=0
         motion=[Motion.FIXED, Motion.DYNAMIC], density=density, friction_angle_deg=phi_deg,
         normal_stiffness=kn, shear_stiffness=ks, damping_ratio=zeta, aabb_margin=0.01, grid_cell_size=1.0,
         velocities=None if v0 is None else np.stack([np.zeros(3), v0]), law=law,
+        locked=None if locked is None else [None, locked],
     )
     return cfg, par, st, down, nrm
 

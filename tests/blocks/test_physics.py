@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rockjax.blocks import SmoothPenaltyCoulomb, box, energies, make_blocks, stable_dt
+from rockjax.blocks import Motion, SmoothPenaltyCoulomb, box, energies, make_blocks, stable_dt
 
 from rollouts import incline_scene, run
 
@@ -88,6 +88,46 @@ def test_incline_sliding_acceleration(law):
     assert a == pytest.approx(a_exact, rel=5e-3), a
     # it slides without turning
     assert np.max(np.abs(np.abs(q[:, 1, 0]) - np.cos(np.radians(th) / 2))) < 1e-3
+
+
+def test_guided_block_slides_in_its_plane():
+    """A guided slide (``locked="y rx rz"``): the same 30 degree incline, mu = 0.3, under a gravity
+    tilted sideways (g_y = 3 m/s^2). The lock's reaction is along y, normal to the slope's normal
+    and to the down-slope direction, so the guided box keeps the closed form of the plain incline,
+    a = g (sin theta - mu cos theta) = 2.3563 m/s^2 (within 0.5 %), with no sideways velocity and
+    no turn at all; unguided, the same box leaves sideways (> 1 m/s after 1 s) and turns."""
+    th, mu, gy = 30.0, 0.3, 3.0
+    out = {}
+    for locked in ("y rx rz", None):
+        cfg, par, st, down, _ = incline_scene(theta_deg=th, b=0.2, h=0.2, phi_deg=np.degrees(np.arctan(mu)),
+                                                  s0=-1.5, locked=locked)
+        st, t, x, q, v, stat = chained(cfg, st, par, 4, gravity=(0.0, gy, -G))
+        assert stat == 0, stat
+        out[locked] = (t, x, q, v)
+    t, x, q, v = out["y rx rz"]
+    assert np.max(np.abs(v[:, 1, 1])) == 0.0  # held exactly
+    assert np.max(np.abs(x[:, 1, 1] - x[0, 1, 1])) == 0.0
+    sel = t >= 0.25
+    a = np.polyfit(t[sel], v[sel, 1] @ down, 1)[0]
+    assert a == pytest.approx(G * (np.sin(np.radians(th)) - mu * np.cos(np.radians(th))), rel=5e-3), a
+    q0 = np.array([np.cos(np.radians(th) / 2), 0.0, np.sin(np.radians(th) / 2), 0.0])
+    assert np.max(np.abs(np.abs(q[:, 1] @ q0) - 1.0)) < 1e-6  # no turn (ry is free but nothing drives it)
+    t, x, q, v = out[None]
+    assert v[-1, 1, 1] > 1.0, v[-1, 1]
+
+
+def test_locked_refuses_bad_specs():
+    """``locked`` names the field and what to change: unknown names, all six, a FIXED block, and a
+    start velocity along a locked direction."""
+    with pytest.raises(ValueError, match="unknown degrees of freedom"):
+        incline_scene(theta_deg=30, b=0.2, h=0.2, phi_deg=10, locked="y sideways")
+    with pytest.raises(ValueError, match="Motion.FIXED instead"):
+        incline_scene(theta_deg=30, b=0.2, h=0.2, phi_deg=10, locked="x y z rx ry rz")
+    with pytest.raises(ValueError, match="starts moving along it"):
+        incline_scene(theta_deg=30, b=0.2, h=0.2, phi_deg=10, locked="y", v0=np.array([0.0, 0.1, 0.0]))
+    with pytest.raises(ValueError, match="only DYNAMIC blocks can be guided"):
+        make_blocks([box(1, 1, 1), box(1, 1, 1)], positions=[[0, 0, 0], [0, 0, 2]], locked=["y", "y"],
+                    motion=[Motion.FIXED, Motion.DYNAMIC])
 
 
 @pytest.mark.parametrize("zeta,law", [(1.0, None), (0.2, None), (0.2, SMOOTH)], ids=["1.0", "0.2", "0.2-smooth"])

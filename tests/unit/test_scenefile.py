@@ -312,6 +312,21 @@ def test_wedge_block_with_velocity_blocks_only():
     assert np.degrees(float(scene.params.blocks.friction_angle)) == pytest.approx(35.0, rel=1e-5)
 
 
+def test_guided_block_key():
+    """``locked`` on a [[block]] reaches ``BlockConfig.locked`` (the fixed floor after it unlocked);
+    an unknown name, all six, or a fixed block are refused at the key's line."""
+    base = ('[[block]]\nshape = "box"\nsize = [0.2, 0.2, 0.1]\nposition = [0.0, 0.0, 0.2]\nLOCK\n'
+            '[[fixed]]\ntype = "box"\nlo = [-1.0, -1.0, -0.2]\nhi = [1.0, 1.0, 0.0]\n')
+    scene = load(base.replace("LOCK", 'locked = "y, rx rz"')).scene
+    assert scene.config.blocks.locked == ((False, True, False, True, False, True), (False,) * 6)
+    for lock, message in (('locked = "y side"', "unknown degrees of freedom \\['side'\\]"),
+                          ('locked = "x y z rx ry rz"', "all six degrees of freedom"),
+                          ('locked = "y"\nmotion = "fixed"', "only a dynamic block can be guided")):
+        text = base.replace("LOCK", lock)
+        with pytest.raises(ValueError, match=rf"line {_line(text, '^locked')}: key `block.locked`.*{message}"):
+            load(text)
+
+
 def test_toml_syntax_error_and_missing_file(tmp_path):
     with pytest.raises(ValueError, match=r"not valid TOML: .*line 2"):
         load('[scene]\nname = \n')

@@ -93,6 +93,10 @@ def advance_blocks(state: BlockState, params: BlockParams, config: BlockConfig, 
         rhs = torque[d] - jnp.cross(wd, L)
         rb_ = jnp.einsum("bji,bj->bi", R, rhs)
         wd = wd + dt * jnp.einsum("bij,bj->bi", R, jnp.einsum("bij,bj->bi", state.shape.inertia_unit_inverse[d], rb_) / rho)
+        if config.locked:  # guided blocks: the locked world components held at zero (their reaction implied)
+            free = np.asarray([[not b for b in config.locked[i]] for i in dyn], dtype=np.float64)
+            vd = vd * jnp.asarray(free[:, :3], f)
+            wd = wd * jnp.asarray(free[:, 3:], f)
         xd = x[d] + dt * vd
         qd = quat_integrate(qd, wd, dt)
         x, v, q, om = x.at[d].set(xd), v.at[d].set(vd), q.at[d].set(qd), om.at[d].set(wd)

@@ -246,6 +246,9 @@ class BlockConfig:
         ``prescribed_direction`` (empty: no paths).
       path_stroke: m, the stroke the paths were built with: each path's motion is scaled by
         ``BlockParams.stroke / path_stroke`` (differentiable w.r.t. the stroke).
+      locked: per block a 6-tuple of bools (x, y, z, rx, ry, rz: world translations and rotations)
+        that are held at zero velocity, or empty (nothing locked): a guided DYNAMIC block (a slide
+        on a flume's rails moves in its vertical plane; ``make_blocks(locked=...)``).
       aabb_margin: m, added to every AABB half-size in the broad phase.
       grid_cell_size: m, uniform-grid cell (GRID; default 1.5 x median block size, seed section 2).
       large_blocks: blocks bigger than a grid cell (GRID): tested against every block directly.
@@ -281,6 +284,7 @@ class BlockConfig:
     prescribed_ramp: float = 0.0
     paths: tuple = ()
     path_stroke: float = 0.0
+    locked: tuple = ()
     aabb_margin: float = 0.0
     grid_cell_size: float = 1.0
     large_blocks: tuple = ()
@@ -322,6 +326,13 @@ class BlockConfig:
                                      f"PRESCRIBED block (got {type(p).__name__} for a {m.name} block)")
             if not (math.isfinite(self.path_stroke) and self.path_stroke > 0):
                 raise ValueError(f"BlockConfig.path_stroke must be > 0 m with paths (got {self.path_stroke})")
+        if self.locked:
+            if len(self.locked) != self.n_blocks or not all(len(r) == 6 for r in self.locked):
+                raise ValueError(f"BlockConfig.locked must hold one 6-tuple of bools per block ({self.n_blocks}), "
+                                 f"got {self.locked!r}")
+            for i, (r, m) in enumerate(zip(self.locked, self.motion)):
+                if any(r) and m != Motion.DYNAMIC:
+                    raise ValueError(f"BlockConfig.locked[{i}]: block {i} is {m.name}; only DYNAMIC blocks are guided")
 
     def replace(self, **changes) -> "BlockConfig":
         """This config with some fields changed (``dataclasses.replace``)."""
@@ -874,6 +885,7 @@ class BlockGeometry:
       prescribed_direction: [B,3] unit piston directions (0 for blocks that are not PRESCRIBED).
       prescribed_ramp: s, soft start of the piston.
       paths: per block a ``paths.Path`` or None (empty: none); see :class:`BlockConfig`.
+      locked: per block a 6-tuple of bools (x, y, z, rx, ry, rz) held still (empty: none).
     """
 
     polyhedra: tuple
@@ -888,6 +900,7 @@ class BlockGeometry:
     prescribed_direction: np.ndarray
     prescribed_ramp: float
     paths: tuple = ()
+    locked: tuple = ()
 
     @property
     def n_blocks(self) -> int:
@@ -919,7 +932,7 @@ class BlockGeometry:
 
 def block_geometry(polyhedra: Sequence[ConvexPolyhedron], *, positions=None, motion=None, orientations=None,
                    velocities=None, omegas=None, stroke: float = 0.0, period: float = 1.0,
-                   prescribed_direction=None, prescribed_ramp: float = 0.0, paths=None,
+                   prescribed_direction=None, prescribed_ramp: float = 0.0, paths=None, locked=None,
                    check_overlap: Optional[float] = None) -> BlockGeometry:
     """Validate the blocks' shapes, poses and motions (``make_blocks``' arguments of those names,
     same defaults and messages) into a :class:`BlockGeometry`. ``check_overlap``: refuse a
@@ -953,6 +966,13 @@ def block_geometry(polyhedra: Sequence[ConvexPolyhedron], *, positions=None, mot
         bad = [i for i in range(B) if not dyn[i] and np.any(arr[i] != 0)]
         if bad:
             raise ValueError(f"{name}: blocks {bad} are not DYNAMIC; their velocity comes from their motion, set 0")
+    lock = _locked(locked, motion)
+    for i, r in enumerate(lock):
+        for name, arr, axes in (("velocities", vel, r[:3]), ("omegas", om, r[3:])):
+            moving = [_DOF_NAMES[3 * (name == "omegas") + a] for a in range(3) if axes[a] and arr[i, a] != 0]
+            if moving:
+                raise ValueError(f"{name}[{i}]: block {i} is locked in {moving} but starts moving along it; "
+                                 f"set that component to 0 or unlock it")
 
     if check_overlap is not None:
         _refuse_overlaps(polys, pos, ori, motion, limit=check_overlap)
@@ -976,7 +996,50 @@ def block_geometry(polyhedra: Sequence[ConvexPolyhedron], *, positions=None, mot
             pdir[i] = pd[i] / n
     return BlockGeometry(polyhedra=tuple(polys), packed=packed, motion=motion, positions=pos, orientations=ori,
                          velocities=vel, omegas=om, stroke=S, period=T, prescribed_direction=pdir,
-                         prescribed_ramp=ramp, paths=tuple(path_list))
+                         prescribed_ramp=ramp, paths=tuple(path_list), locked=tuple(lock))
+
+
+_DOF_NAMES = ("x", "y", "z", "rx", "ry", "rz")
+
+
+def _locked(locked, motion) -> list:
+    """``make_blocks(locked=...)`` as a per-block list of 6-tuples of bools (empty: none locked).
+
+    ``locked``: None; one string for every DYNAMIC block; or a list with one spec (or None) per
+    block. A spec is a string of degree-of-freedom names separated by spaces or commas (in the list,
+    also a sequence of names):
+    ``x y z`` (world translations) and ``rx ry rz`` (world rotations), e.g. ``"y rx rz"`` keeps a
+    slide in the x-z plane and stops it pitching sideways or turning."""
+    if locked is None:
+        return []
+    B = len(motion)
+
+    def one(spec, where):
+        if spec is None:
+            return (False,) * 6
+        names = spec.replace(",", " ").split() if isinstance(spec, str) else list(spec)
+        bad = [n for n in names if n not in _DOF_NAMES]
+        if bad or not all(isinstance(n, str) for n in names):
+            raise ValueError(f"{where}: unknown degrees of freedom {bad or names}; use names from {list(_DOF_NAMES)} "
+                             f"(e.g. 'y rx rz' for a slide guided in the x-z plane)")
+        r = tuple(n in names for n in _DOF_NAMES)
+        if all(r):
+            raise ValueError(f"{where}: all six degrees of freedom are locked; make the block Motion.FIXED instead")
+        return r
+
+    if isinstance(locked, str):
+        r = one(locked, "locked")
+        out = [r if m == Motion.DYNAMIC else (False,) * 6 for m in motion]
+    else:
+        specs = list(locked)
+        if len(specs) != B:
+            raise ValueError(f"locked: {len(specs)} entries for {B} blocks; give one spec (e.g. 'y rx rz') for every "
+                             f"DYNAMIC block, or one (a spec or None) per block")
+        out = [one(sp, f"locked[{i}]") for i, sp in enumerate(specs)]
+        for i, (r, m) in enumerate(zip(out, motion)):
+            if any(r) and m != Motion.DYNAMIC:
+                raise ValueError(f"locked[{i}]: block {i} is {m.name}; only DYNAMIC blocks can be guided")
+    return out if any(any(r) for r in out) else []
 
 
 def _paths(paths, motion) -> list:
@@ -1245,6 +1308,7 @@ def block_config(geometry: BlockGeometry, contact: dict, capacities: BlockCapaci
         prescribed_ramp=float(geometry.prescribed_ramp),
         paths=tuple(geometry.paths),
         path_stroke=next((p.stroke for p in geometry.paths if p is not None), 0.0),
+        locked=tuple(geometry.locked),
         tuning=tuning,
         **contact,
     )
@@ -1271,6 +1335,7 @@ def make_blocks(
     prescribed_direction=None,
     prescribed_ramp: float = 0.0,
     paths=None,
+    locked=None,
     pair_capacity: Optional[int] = None,
     fcp_iterations: int = 1,
     fcp_warm_iterations: int = 0,
@@ -1330,6 +1395,11 @@ def make_blocks(
         or a list with one entry (Path or None) per block; a block with a path needs no
         ``prescribed_direction``. ``stroke`` then defaults to the first path's stroke, and the
         params' stroke scales every path (``BlockConfig.path_stroke``).
+      locked: degrees of freedom of DYNAMIC blocks held at zero velocity (a guided slide): one
+        string for every DYNAMIC block, or a list with one spec (or None) per block; a spec names
+        world translations ``x y z`` and rotations ``rx ry rz`` (a string such as ``"y rx rz"``,
+        or in the list also a sequence of names). The constraint's reaction is implied: the locked velocity components are zeroed
+        after each step's update (``BlockConfig.locked``).
       pair_capacity: candidate-pair buffer; default all candidate pairs (ALL_PAIRS) or
         ``8 x n_dynamic + (#large blocks x B)`` (GRID).
       fcp_iterations: Fast Common Plane iterations per step of a pair starting cold (>= 0).
@@ -1361,7 +1431,7 @@ def make_blocks(
     geometry = block_geometry(polyhedra, positions=positions, motion=motion, orientations=orientations,
                               velocities=velocities, omegas=omegas, stroke=stroke, period=period,
                               prescribed_direction=prescribed_direction, prescribed_ramp=prescribed_ramp,
-                              paths=paths,
+                              paths=paths, locked=locked,
                               check_overlap=START_OVERLAP if check_overlap else None)
     material = BlockMaterial(density=density, friction_angle_deg=friction_angle_deg, cohesion=cohesion,
                              tensile_strength=tensile_strength, normal_stiffness=normal_stiffness,

@@ -313,7 +313,7 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
                   flume_width: float = 0.4, start_distance: float = 0.1, coupling: Coupling = Coupling.PENALTY,
                   h_factor: float | None = None, c0: float | None = None, rebuild_every: int = 8,
                   joint_water: bool = True, scheme: FluidScheme | str = WCSPH(), cfl: float | None = None,
-                  skin_factor: float | None = None, block_substeps: int | None = None) -> Scene:
+                  skin_factor: float | None = None, block_substeps: int | None = None, guided: bool = False) -> Scene:
     """The seed's second example: a rigid wedge sliding down a 25 degree plane into water.
 
     The wedge has a horizontal top of ``block_length`` [m], a vertical front face and its
@@ -333,6 +333,10 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
             (``scheme_resolution``); ``skin_factor`` None: 0.6 dx whatever the scheme (the block
             particles move within a step before the water's sums: with DFSPH's step they move
             up to ~0.3 dx). block_substeps: block steps per fluid step (``coupled_scene``).
+        guided: the wedge moves only in the flume's vertical (x-z) plane, as a slide on rails
+            does in a laboratory flume: its sideways translation and its rotations about x and z
+            are locked (``make_blocks(locked="y rx rz")``). Off, the water's side walls (wall
+            particles, no contact) are all that keeps it in the flume.
     """
     dx = _positive("sliding_wedge: dx", dx)
     scheme = as_scheme(scheme)
@@ -375,7 +379,8 @@ def sliding_wedge(*, dx: float = 0.02, slope_angle_deg: float = 25.0, block_dens
                          fluid_x=water, wall_x=walls, domain_lo=dom_lo, domain_hi=dom_hi, still_level=0.0,
                          coupling=coupling, c0=c0, h_factor=h_factor, rebuild_every=rebuild_every,
                          joint_water=joint_water, meta=meta, scheme=scheme, cfl=cfl, skin_factor=skin_factor,
-                         block_substeps=block_substeps)
+                         block_substeps=block_substeps,
+                         block_kwargs={"locked": ["y rx rz", None, None]} if guided else None)
 
 
 def rock_slope(*, dx: float = 0.02, failure: str = "planar", slope_angle_deg: float | None = None,

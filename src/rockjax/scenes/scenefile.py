@@ -71,6 +71,7 @@ Form (b): a general scene
     velocity = [0.0, 0.0, 0.0]         # m/s
     density = 2500.0                   # kg/m^3
     motion = "dynamic"                 # or "fixed"
+    locked = "y rx rz"                 # guided: these world translations / rotations held still
 
     [materials]                        # block contacts (blocks.make_blocks)
     friction_angle_deg = 20.0          # [0, 90)
@@ -314,7 +315,7 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
               "rotation_deg": _num(default=0.0, unit="degrees"), "velocity": _Key("vec3", (0.0, 0.0, 0.0), "m/s"),
               "density": _num(default=2650.0, unit="kg/m^3", **_POS,
                               hint="rock is ~2000-3000 kg/m^3"),
-              "motion": _choice(("dynamic", "fixed"), "dynamic")},
+              "motion": _choice(("dynamic", "fixed"), "dynamic"), "locked": _Key("str", "")},
     "materials": {"friction_angle_deg": _num(default=30.0, unit="degrees", lo=0.0, hi=90.0, hi_open=True),
                   "cohesion": _num(default=0.0, unit="N", **_NONNEG),
                   "normal_stiffness": _num(unit="N/m", **_POS), "shear_stiffness": _num(unit="N/m", **_POS),
@@ -757,7 +758,8 @@ class BlockSpec:
     """One ``[[block]]``: ``shape`` box / wedge (``size`` [m]) or mesh (``file``, ``hull``, ``scale``,
     ``convexity_tol``), placed with its centroid at ``position`` [m] (None: the mesh's own) after a
     rotation of ``rotation_deg`` about ``rotation_axis``; ``velocity`` [m/s], ``density`` [kg/m^3],
-    ``motion`` ("dynamic" or "fixed")."""
+    ``motion`` ("dynamic" or "fixed"); ``locked``: degrees of freedom held still (``x y z rx ry rz``,
+    e.g. ``"y rx rz"`` for a slide guided in the x-z plane; ``make_blocks(locked=...)``)."""
 
     shape: str
     name: str | None
@@ -774,6 +776,7 @@ class BlockSpec:
     motion: str
     path: tuple
     polyhedron: Any = None  # a block cut from the [rock_mass], placed (shape "rock")
+    locked: str = ""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -920,6 +923,18 @@ def _parse_blocks(ctx: _Ctx, doc: dict) -> tuple[BlockSpec, ...]:
             ctx.fail(path + ("rotation_axis",), "must be a non-zero vector")
         if b["file"] is not None:
             b["file"] = _path_in(ctx, path, b["file"])
+        if b["locked"]:
+            from ..blocks.model import _DOF_NAMES
+
+            names = b["locked"].replace(",", " ").split()
+            bad = [n for n in names if n not in _DOF_NAMES]
+            if bad:
+                ctx.fail(path + ("locked",), f"unknown degrees of freedom {bad}; use names from {list(_DOF_NAMES)} "
+                                            f"(e.g. \"y rx rz\" for a slide guided in the x-z plane)")
+            if len(set(names)) == 6:
+                ctx.fail(path + ("locked",), "all six degrees of freedom are locked; use motion = \"fixed\"")
+            if b["motion"] != "dynamic":
+                ctx.fail(path + ("locked",), "only a dynamic block can be guided; remove locked or set motion = \"dynamic\"")
         out.append(_fields(BlockSpec, b, path=path))
     return tuple(out)
 
@@ -1220,6 +1235,9 @@ def build(spec: SceneSpec) -> Scene:
     if spec.rock_mass is not None:
         meta["rock_mass"] = spec.rock_mass
     block_kwargs = mat.block_kwargs()
+    if any(b.locked for _, b in user_blocks):  # guided blocks: one spec per block, the fixed solids after them
+        n_fixed = sum(1 for s, f in fixed if s.polyhedron is not None and (f.block or not has_water))
+        block_kwargs = {**block_kwargs, "locked": [b.locked or None for _, b in user_blocks] + [None] * n_fixed}
     if not has_water:  # blocks only
         for s, f in fixed:
             if s.polyhedron is None:
