@@ -1460,9 +1460,13 @@ def sec_waves(doc: Doc):
               "`a_M / h = 4/9 P^4/5`, `H_M / h = 5/9 P^4/5` (granular slides; a rigid block is not one). `x(a_M) / h`: "
               "where the largest crest was met, against the fit's `5.5 P^1/2`; `a_M >= 4h`: the largest crest at the "
               "gauges from 4 depths on, `H_M >= 4h` likewise (the gauges at 2-3 depths stand over or just ahead of "
-              "the wedge's final front, `front end`, 2-2.7 depths from the shoreline). `drift y`: the wedge's sideways drift by the end (nothing guides it "
-              "but the water in its 1 dx gaps; after it stops at the toe it drifts into a side wall within ~2 s).")
-        rows = [[r.get("scheme", "wcsph"), r["dx"], r.get("h_over_dx", "-"), r["slope_deg"], r["block_length"],
+              "the wedge's final front, `front end`, 2-2.7 depths from the shoreline). `guided`: the wedge held in the "
+              "flume's x-z plane (`sliding_wedge(guided=True)`, its y translation and x and z rotations locked, as a "
+              "slide on rails); unguided runs (the first three) leave it free, and then only the water in its 1 dx gaps "
+              "holds it: `drift y`, its sideways drift by the end (after it stops at the toe it drifted into a side "
+              "wall within ~2 s).")
+        rows = [[r.get("scheme", "wcsph"), "yes" if r.get("guided") else "no", r["dx"], r.get("h_over_dx", "-"),
+                 r["slope_deg"], r["block_length"],
                  r["density"], r["start_distance"], r["F"], r["S"], r["M"], r["P"], r["a_M"], r["a_M_fit"],
                  r["a_ratio"], r.get("a_M_from_4h", "-"),
                  "-" if r.get("a_M_from_4h") is None else r["a_M_from_4h"] / r["a_M_fit"],
@@ -1470,18 +1474,21 @@ def sec_waves(doc: Doc):
                  "-" if r.get("H_M_from_4h") is None else r["H_M_from_4h"] / r["H_M_fit"],
                  r["x_aM_over_h"], r["x_M_fit_over_h"], r.get("wedge_front_x_end", "-"),
                  r.get("wedge_drift_y", "-"), r["n_fluid"], r["wall_s"], r.get("date")] for r in recs]
-        doc.p(table(["scheme", "dx [m]", "h/dx", "alpha [deg]", "wedge L [m]", "rho_s", "start [m]", "F", "S", "M", "P",
+        doc.p(table(["scheme", "guided", "dx [m]", "h/dx", "alpha [deg]", "wedge L [m]", "rho_s", "start [m]", "F", "S", "M", "P",
                      "a_M [m]", "a_M fit", "a_M / fit", "a_M >= 4h [m]", "/ fit", "H_M [m]", "H_M fit", "H_M / fit",
                      "H_M >= 4h [m]", "/ fit", "x(a_M) / h", "x_M fit / h", "front end [m]", "drift y [m]", "n_fluid", "wall s", "date"], rows))
         import numpy as _np
-        for sch in sorted({r.get("scheme", "wcsph") for r in recs}):
-            rr = [r for r in recs if r.get("scheme", "wcsph") == sch and r["dx"] == 0.02]
+        groups = sorted({(r.get("scheme", "wcsph"), r["dx"], bool(r.get("guided"))) for r in recs})
+        for sch, dx_, guided in groups:
+            rr = [r for r in recs if (r.get("scheme", "wcsph"), r["dx"], bool(r.get("guided"))) == (sch, dx_, guided)
+                  and r.get("a_M_from_4h") is not None]
             if len(rr) >= 2:
-                a = _np.log([r["a_ratio"] for r in rr])
-                H = _np.log([r["H_ratio"] for r in rr])
-                doc.p(f"{sch} at dx 0.02 over {len(rr)} runs: a_M / fit geometric mean {_np.exp(a.mean()):.3f} "
-                      f"(range {_np.exp(a.min()):.3f}-{_np.exp(a.max()):.3f}), H_M / fit {_np.exp(H.mean()):.3f} "
-                      f"(range {_np.exp(H.min()):.3f}-{_np.exp(H.max()):.3f}).")
+                a = _np.log([r["a_M_from_4h"] / r["a_M_fit"] for r in rr])
+                H = _np.log([r["H_M_from_4h"] / r["H_M_fit"] for r in rr])
+                doc.p(f"{sch}, dx {dx_}, {'guided' if guided else 'unguided'}, over {len(rr)} runs (P "
+                      f"{min(r['P'] for r in rr):.2f}-{max(r['P'] for r in rr):.2f}): a_M (>= 4h) / fit geometric mean "
+                      f"{_np.exp(a.mean()):.3f} (range {_np.exp(a.min()):.3f}-{_np.exp(a.max()):.3f}), H_M (>= 4h) / fit "
+                      f"{_np.exp(H.mean()):.3f} (range {_np.exp(H.min()):.3f}-{_np.exp(H.max()):.3f}).")
 
 
 def sec_rock_slope(doc: Doc):

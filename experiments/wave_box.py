@@ -37,7 +37,7 @@ DEPTH, G = 0.3, 9.81
 
 
 def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion: str | None = None,
-          cfl: float | None = None, c0_factor: float = 15.0):
+          cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0):
     """``scenes.wave_box`` with the variant's terms and constants."""
     import rockjax as rj
 
@@ -55,18 +55,18 @@ def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion:
     if diffusion is not None:
         terms["diffusion"] = rj.sph.by_name("diffusion", diffusion)
     return rj.scenes.wave_box(dx=dx, depth=DEPTH, amplitude=amplitude, h_factor=h_factor, scheme=rj.WCSPH(**terms),
-                              cfl=cfl, c0=c0_factor * math.sqrt(G * DEPTH), **kw)
+                              cfl=cfl, c0=c0_factor * math.sqrt(G * DEPTH), settle=settle, **kw)
 
 
 def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: float, diffusion: str | None = None,
-        cfl: float | None = None, c0_factor: float = 15.0) -> dict:
+        cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0) -> dict:
     import jax.numpy as jnp
 
     import rockjax as rj
-    from rockjax.observables import gauge_elevation
+    from rockjax.observables import energies, fluid_mass, gauge_elevation
     from rockjax.validation import wave_mode
 
-    scene = build(dx, amplitude, variant, h_factor, diffusion, cfl, c0_factor)
+    scene = build(dx, amplitude, variant, h_factor, diffusion, cfl, c0_factor, settle)
     m = scene.meta
     L, k, omega = m["wavelength"], m["k"], m["omega"]
     T = 2 * math.pi / omega
@@ -75,23 +75,36 @@ def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: flo
     pts = jnp.asarray(m.gauges.xy)
 
     def observe(state, params, config):
-        return {"eta": gauge_elevation(state, params, config, pts, bottom_z=0.0, still_level=DEPTH)}
+        e = energies(state, params, config)
+        return {"eta": gauge_elevation(state, params, config, pts, bottom_z=0.0, still_level=DEPTH),
+                "e_total": e["total"], "e_kinetic": e["kinetic"]}
 
     t0 = time.perf_counter()
-    res = rj.simulate(scene, t_end=periods * T, frame_dt=T / 16, observe=observe, progress=False)
+    res = rj.simulate(scene, t_end=periods * T, frame_dt=T / 16, observe=observe, progress=False, keep_frames=True)
     wall = time.perf_counter() - t0
     t = np.asarray(res.times)
     fit = wave_mode(t, res.observed["eta"], gx, k=k, t_start=T)  # after the first period (the start's transient)
     amp, mu, omega_fit = fit["amplitude"], fit["mu"], fit["omega"]
     keep = t >= T
-    cg = 0.5 * omega / k * (1 + 2 * k * DEPTH / math.sinh(2 * k * DEPTH))
+    # Energy budget: the linear wave's energy (rho g a^2 / 2 per unit area) against the loss of the
+    # fluid's total energy. Over the fit window, the mode's energy falls by d_mode; the total by
+    # d_total. d_total / d_mode ~ 1: the wave's energy is dissipated (viscosity, diffusion, walls);
+    # ~ 0: it is conserved but leaves the wave (into particle noise and other modes).
     fl = scene.params.fluid
+    width = float(fluid_mass(scene.state, scene.params)) / (float(fl.rho0) * L * DEPTH)  # the box's periodic width
+    e_wave = 0.5 * float(fl.rho0) * G * amplitude ** 2 * L * width
+    e_tot = np.asarray(res.observed["e_total"])
+    i0, i1 = int(np.argmax(keep)), len(t) - 1
+    d_mode = e_wave * ((amp[i0] / amplitude) ** 2 - (amp[i1] / amplitude) ** 2)
+    d_total = float(e_tot[i0] - e_tot[i1])
+    cg = 0.5 * omega / k * (1 + 2 * k * DEPTH / math.sinh(2 * k * DEPTH))
     laminar = variant == "laminar"
     nu_eff = float(fl.nu) if laminar else float(fl.alpha) * float(fl.h) * float(fl.c0) / 10.0
     delta = math.sqrt(2 * nu_eff / omega)
     no_slip = float(fl.wall_viscosity) > 0
     mu_bed = omega ** 3 * delta / (4 * G * cg * math.sinh(k * DEPTH) ** 2) * cg if no_slip else 0.0
-    return dict(experiment="wave_box", variant=variant, diffusion=scene.config.scheme.diffusion.name, dx=dx,
+    noise = _noise(res.frames, L, float(fl.rho0) * dx ** 3, e_wave)
+    return dict(experiment="wave_box", variant=variant, settle=settle, diffusion=scene.config.scheme.diffusion.name, dx=dx,
                 cfl=scene.config.cfl, c0_over_sqrt_gd=c0_factor, dt=scene.config.dt, h_over_dx=float(fl.h) / dx,
                 amplitude=amplitude,
                 ka=k * amplitude, a_over_dx=amplitude / dx, kd=k * DEPTH, L=L, periods=periods,
@@ -100,7 +113,37 @@ def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: flo
                 decay_per_wavelength=1 - math.exp(-mu * L / cg), omega_over_theory=omega_fit / omega,
                 nu_eff=nu_eff, lamb_per_wavelength=1 - math.exp(-2 * nu_eff * k * k * L / cg),
                 bed_per_wavelength=1 - math.exp(-mu_bed * L / cg), wall_s=wall, load=os.getloadavg()[0],
+                energy_lost_over_mode_lost=d_total / d_mode if d_mode > 0 else float("nan"),
+                energy_lost_over_wave_energy=d_total / e_wave,
+                kinetic_over_wave_energy_last=float(np.asarray(res.observed["e_kinetic"])[-1]) / e_wave,
+                **noise,
                 amp_series=[round(float(a) / amplitude, 4) for a in amp[::4]])
+
+
+def _noise(frames, L: float, m: float, e_wave: float) -> dict:
+    """The last frame's kinetic energy outside the waves, over the wave's start energy: ``ke_y``,
+    that of the sideways velocities (none in a 2D wave: they grow from round-off as the lattice
+    rearranges), and ``ke_rotational``, that of the x-z velocities left after a least-squares fit
+    of the box's potential-flow modes 1-6 (``phi ~ cosh(k_n z) (A cos k_n x + B sin k_n x)``):
+    spurious vorticity and particle noise (Colagrossi et al. 2013 find that too few neighbours let
+    it grow and over-damp the wave)."""
+    from rockjax.types import Kind
+
+    kind = np.asarray(frames["kind"][-1])
+    fl = kind == int(Kind.FLUID)
+    x, v = np.asarray(frames["x"][-1])[fl], np.asarray(frames["v"][-1])[fl]
+    cols = []
+    for n in range(1, 7):
+        kn = 2 * math.pi * n / L
+        c, s = np.cos(kn * x[:, 0]), np.sin(kn * x[:, 0])
+        ch, sh = np.cosh(kn * x[:, 2]) / np.cosh(kn * DEPTH), np.sinh(kn * x[:, 2]) / np.cosh(kn * DEPTH)
+        cols += [np.concatenate([-ch * s, sh * c]), np.concatenate([ch * c, sh * s])]
+    A = np.stack(cols, 1)
+    b = np.concatenate([v[:, 0], v[:, 2]])
+    coef, *_ = np.linalg.lstsq(A, b, rcond=None)
+    resid = b - A @ coef
+    return dict(ke_y_over_wave_energy=0.5 * m * float(np.sum(v[:, 1] ** 2)) / e_wave,
+                ke_rotational_over_wave_energy=0.5 * m * float(np.sum(resid ** 2)) / e_wave)
 
 
 def main():
@@ -114,9 +157,11 @@ def main():
     ap.add_argument("--diffusion", default=None, help="density diffusion by name (sph.by_name): none, molteni, "
                     "fourtakas (the scenes' default), fourtakas_surface, antuono")
     ap.add_argument("--h-factor", type=float, default=1.5)
+    ap.add_argument("--settle", type=float, default=0.0, help="s of still-water relaxation before the wave "
+                    "(scenes.settle; 0: the cubic lattice)")
     ap.add_argument("--out", default=str(HERE / "results" / "wave_box.jsonl"))
     a = ap.parse_args()
-    rec = run(a.dx, a.amplitude, a.variant, a.periods, a.h_factor, a.diffusion, a.cfl, a.c0_factor)
+    rec = run(a.dx, a.amplitude, a.variant, a.periods, a.h_factor, a.diffusion, a.cfl, a.c0_factor, a.settle)
     emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown={k: v for k, v in rec.items() if k != "amp_series"})
 
 

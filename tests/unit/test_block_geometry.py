@@ -591,3 +591,14 @@ def test_project_equals_matrix_products():
     np.testing.assert_allclose(np.asarray(project(jnp.asarray(X), jnp.asarray(N))), X @ N.T, rtol=1e-6, atol=1e-6)
     np.testing.assert_allclose(np.asarray(project(jnp.asarray(X), jnp.asarray(N[0]))), X @ N[0], rtol=1e-6, atol=1e-6)
     assert project(jnp.asarray(X), jnp.asarray(N)).shape == (5, 7, 11)
+
+
+def test_sliding_wedge_guided_locks_the_wedge_only():
+    """``sliding_wedge(guided=True)``: the wedge (block 0) is held in the x-z plane (y, rx, rz
+    locked); the slope and floor (FIXED) carry no lock; unguided, nothing is locked."""
+    import rockjax as rj
+
+    kw = dict(dx=0.05, slope_angle_deg=40.0, block_length=0.2, block_width=0.2, water_depth=0.2, flat_length=0.4)
+    guided = rj.scenes.sliding_wedge(guided=True, **kw).config.blocks.locked
+    assert guided == ((False, True, False, True, False, True), (False,) * 6, (False,) * 6)
+    assert rj.scenes.sliding_wedge(**kw).config.blocks.locked == ()

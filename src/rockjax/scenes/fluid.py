@@ -133,7 +133,7 @@ def hydrostatic_tank(*, dx: float = 0.02, length: float = 0.2, width: float = 0.
 def wave_box(*, dx: float = 0.03, depth: float = 0.3, kd: float = 1.0, amplitude: float = 0.02, gauges: int = 64,
              scheme: FluidScheme | str = WCSPH(), h_factor: float | None = 1.5, c0: float | None = None,
              alpha: float | None = None, nu: float | None = None, delta: float = 0.1, wall_viscosity: float = 1.0,
-             cfl: float | None = None) -> Scene:
+             cfl: float | None = None, settle: float = 0.0) -> Scene:
     """One wavelength of water ``depth`` [m] deep, periodic in x and y over a wall bed (z = 0),
     started as a linear (Airy) progressive wave of ``amplitude`` a [m] travelling towards +x.
 
@@ -147,6 +147,11 @@ def wave_box(*, dx: float = 0.03, depth: float = 0.3, kd: float = 1.0, amplitude
     relation's ``omega = sqrt(g k tanh kd)`` (``meta["omega"]``) and decays at the scheme's damping:
     what a wave flume loses per wavelength, without its paddle and beach
     (``experiments/wave_box.py``). Defaults: the wave flumes' h = 1.5 dx and c0 = 15 sqrt(g depth).
+
+    ``settle`` [s] > 0 first relaxes the still water (``scenes.settle``) and starts the wave from
+    the relaxed particles (their positions as rest positions, their densities plus linear theory's
+    change): a cubic lattice is not the discrete equilibrium, and in a wave it rearranges, with
+    sideways motion growing from round-off.
     """
     import jax.numpy as jnp
 
@@ -166,10 +171,16 @@ def wave_box(*, dx: float = 0.03, depth: float = 0.3, kd: float = 1.0, amplitude
                          f"a / depth = {amplitude / depth:.3g}); use k a <= 0.3 and a <= depth / 2")
     scheme = as_scheme(scheme)
     hf = scheme_resolution(scheme, h_factor, cfl)[0]
-    width = (8 if hf > 1.3 else 7) * dx  # the narrowest periodic width its list allows
+    width = math.ceil(2 * (2 * hf + 0.6) - 1e-9) * dx  # the narrowest periodic width its list allows (2 h support, skin)
     scene = hydrostatic_tank(dx=dx, length=L, width=width, depth=depth, periodic_xy=True, scheme=scheme,
                              h_factor=h_factor, c0=15.0 * math.sqrt(GRAVITY * depth) if c0 is None else c0,
                              alpha=alpha, nu=nu, delta=delta, wall_viscosity=wall_viscosity, cfl=cfl)
+    if not (settle >= 0 and math.isfinite(settle)):
+        raise ValueError(f"wave_box: settle must be a time >= 0 s (got {settle!r})")
+    if settle > 0:
+        from .settle import settle as _settle
+
+        scene = _settle(scene, t_settle=float(settle))
     P = scene.state.particles
     x, v, rho = np.array(P.x), np.array(P.v), np.array(P.rho)
     fluid = np.asarray(P.kind) == Kind.FLUID
@@ -183,7 +194,9 @@ def wave_box(*, dx: float = 0.03, depth: float = 0.3, kd: float = 1.0, amplitude
     rho0, c0_ = float(scene.params.fluid.rho0), float(scene.params.fluid.c0)
     p = rho0 * GRAVITY * (depth - zd) + rho0 * GRAVITY * amplitude * np.cosh(k * z) / math.cosh(k * depth) * c
     dens = scheme.initial_density(p, rho0=rho0, c0=c0_)
-    if dens is not None:
+    if dens is not None and settle > 0:  # the relaxed densities plus the wave's change
+        rho[fluid] = rho[fluid] + dens - scheme.initial_density(rho0 * GRAVITY * (depth - z), rho0=rho0, c0=c0_)
+    elif dens is not None:
         rho[fluid] = dens
     x[fluid, 0] = np.mod(x[fluid, 0] - amplitude * ch * s, L)
     x[fluid, 2] = zd
