@@ -1442,13 +1442,23 @@ def sec_waves(doc: Doc):
               "target: <= 1 %); `Lamb / L`: `2 nu k^2` for the effective nu (alpha h c0 / 10 for Monaghan's term); "
               "`bed / L`: a laminar Stokes layer of that nu on the bed (Hunt 1952; 0 for a free-slip bed); "
               "`omega / theory`: the mode's frequency against sqrt(g k tanh kd); `mode after 1 T`: its amplitude after "
-              "the first period over a. `scenes.wave_box` builds the box.")
-        rows = [[r["variant"], r.get("diffusion", "fourtakas" if r["variant"] != "no-diffusion" else "none"), r["dx"],
+              "the first period over a. `scenes.wave_box` builds the box. Energy budget (later runs): `dissipated`, "
+              "the fluid's total energy lost (kinetic + potential + elastic) over the wave mode's energy lost in the "
+              "fit window (1: every joule the wave loses is dissipated; less: the rest stays in the water as motion "
+              "that is not the wave); `KE y`, `KE rot.`: at the end, over the wave's start energy, the kinetic energy "
+              "of the sideways velocities (none in a 2D wave) and of the x-z velocities left after fitting the box's "
+              "potential-flow modes 1-6 (spurious vorticity and particle noise). `settle`: seconds of still-water "
+              "relaxation (`scenes.settle`) before the wave (0: the cubic lattice).")
+        rows = [[r["variant"], r.get("diffusion", "fourtakas" if r["variant"] != "no-diffusion" else "none"),
+                 r.get("delta", 0.1), r["dx"],
                  r["h_over_dx"], r.get("cfl", 0.25), r.get("c0_over_sqrt_gd", 15.0), r["a_over_dx"], r["ka"], r["n_fluid"], r["nu_eff"],
                  r["amp_first_period"], r["decay_per_period"], r["decay_per_wavelength"], r["lamb_per_wavelength"],
-                 r["bed_per_wavelength"], f"{r['omega_over_theory']:.4f}", r["wall_s"], r.get("date")] for r in recs]
-        doc.p(table(["variant", "diffusion", "dx [m]", "h/dx", "CFL", "c0 / sqrt(g d)", "a/dx", "ka", "n_fluid", "nu eff. [m^2/s]", "mode after 1 T / a",
-                     "decay / T", "decay / L", "Lamb / L", "bed / L", "omega / theory", "wall s", "date"], rows))
+                 r["bed_per_wavelength"], f"{r['omega_over_theory']:.4f}", r.get("settle", 0.0),
+                 r.get("energy_lost_over_mode_lost", "-"), r.get("ke_y_over_wave_energy", "-"),
+                 r.get("ke_rotational_over_wave_energy", "-"), r["wall_s"], r.get("date")] for r in recs]
+        doc.p(table(["variant", "diffusion", "delta", "dx [m]", "h/dx", "CFL", "c0 / sqrt(g d)", "a/dx", "ka", "n_fluid", "nu eff. [m^2/s]", "mode after 1 T / a",
+                     "decay / T", "decay / L", "Lamb / L", "bed / L", "omega / theory", "settle [s]", "dissipated",
+                     "KE y", "KE rot.", "wall s", "date"], rows))
     recs = doc.records("impulse_waves.jsonl", "python experiments/impulse_waves.py --scheme SCHEME [--start S] "
                        "[--slope A --length L] [--density RHO] [--dx DX]")
     if recs is not None:

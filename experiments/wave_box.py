@@ -37,7 +37,7 @@ DEPTH, G = 0.3, 9.81
 
 
 def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion: str | None = None,
-          cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0):
+          cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0, delta: float = 0.1):
     """``scenes.wave_box`` with the variant's terms and constants."""
     import rockjax as rj
 
@@ -55,18 +55,18 @@ def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion:
     if diffusion is not None:
         terms["diffusion"] = rj.sph.by_name("diffusion", diffusion)
     return rj.scenes.wave_box(dx=dx, depth=DEPTH, amplitude=amplitude, h_factor=h_factor, scheme=rj.WCSPH(**terms),
-                              cfl=cfl, c0=c0_factor * math.sqrt(G * DEPTH), settle=settle, **kw)
+                              cfl=cfl, c0=c0_factor * math.sqrt(G * DEPTH), settle=settle, delta=delta, **kw)
 
 
 def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: float, diffusion: str | None = None,
-        cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0) -> dict:
+        cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0, delta: float = 0.1) -> dict:
     import jax.numpy as jnp
 
     import rockjax as rj
     from rockjax.observables import energies, fluid_mass, gauge_elevation
     from rockjax.validation import wave_mode
 
-    scene = build(dx, amplitude, variant, h_factor, diffusion, cfl, c0_factor, settle)
+    scene = build(dx, amplitude, variant, h_factor, diffusion, cfl, c0_factor, settle, delta)
     m = scene.meta
     L, k, omega = m["wavelength"], m["k"], m["omega"]
     T = 2 * math.pi / omega
@@ -100,11 +100,11 @@ def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: flo
     cg = 0.5 * omega / k * (1 + 2 * k * DEPTH / math.sinh(2 * k * DEPTH))
     laminar = variant == "laminar"
     nu_eff = float(fl.nu) if laminar else float(fl.alpha) * float(fl.h) * float(fl.c0) / 10.0
-    delta = math.sqrt(2 * nu_eff / omega)
+    stokes = math.sqrt(2 * nu_eff / omega)  # the bed's Stokes-layer thickness m
     no_slip = float(fl.wall_viscosity) > 0
-    mu_bed = omega ** 3 * delta / (4 * G * cg * math.sinh(k * DEPTH) ** 2) * cg if no_slip else 0.0
+    mu_bed = omega ** 3 * stokes / (4 * G * cg * math.sinh(k * DEPTH) ** 2) * cg if no_slip else 0.0
     noise = _noise(res.frames, L, float(fl.rho0) * dx ** 3, e_wave)
-    return dict(experiment="wave_box", variant=variant, settle=settle, diffusion=scene.config.scheme.diffusion.name, dx=dx,
+    return dict(experiment="wave_box", variant=variant, settle=settle, delta=delta, diffusion=scene.config.scheme.diffusion.name, dx=dx,
                 cfl=scene.config.cfl, c0_over_sqrt_gd=c0_factor, dt=scene.config.dt, h_over_dx=float(fl.h) / dx,
                 amplitude=amplitude,
                 ka=k * amplitude, a_over_dx=amplitude / dx, kd=k * DEPTH, L=L, periods=periods,
@@ -157,11 +157,12 @@ def main():
     ap.add_argument("--diffusion", default=None, help="density diffusion by name (sph.by_name): none, molteni, "
                     "fourtakas (the scenes' default), fourtakas_surface, antuono")
     ap.add_argument("--h-factor", type=float, default=1.5)
+    ap.add_argument("--delta", type=float, default=0.1, help="the density diffusion's delta (Params.fluid.delta)")
     ap.add_argument("--settle", type=float, default=0.0, help="s of still-water relaxation before the wave "
                     "(scenes.settle; 0: the cubic lattice)")
     ap.add_argument("--out", default=str(HERE / "results" / "wave_box.jsonl"))
     a = ap.parse_args()
-    rec = run(a.dx, a.amplitude, a.variant, a.periods, a.h_factor, a.diffusion, a.cfl, a.c0_factor, a.settle)
+    rec = run(a.dx, a.amplitude, a.variant, a.periods, a.h_factor, a.diffusion, a.cfl, a.c0_factor, a.settle, a.delta)
     emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown={k: v for k, v in rec.items() if k != "amp_series"})
 
 

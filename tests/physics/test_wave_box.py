@@ -54,3 +54,17 @@ def test_refuses_what_it_cannot_build():
         rj.scenes.wave_box(dx=0.04)
     with pytest.raises(ValueError, match=r"wave_box: amplitude = 0.15 m is not a linear wave"):
         rj.scenes.wave_box(dx=0.05, amplitude=0.15)
+
+
+def test_settled_start_is_the_linear_wave_too():
+    """``settle`` relaxes the still water first and puts the wave on the relaxed particles: the
+    start is still linear theory's surface (first mode within 3 % of a) with the orbit speeds."""
+    sb = rj.scenes.wave_box(dx=0.05, settle=0.2)
+    m = sb.meta
+    obs = scene_observer(m)(sb.state, sb.params, sb.config)
+    fit = wave_mode([0.0, 1e-3], np.stack([obs["gauges"]] * 2), np.asarray(m.gauges.xy)[:, 0], k=m["k"])
+    assert fit["amplitude"][0] == pytest.approx(m["amplitude"], rel=0.03)
+    k, d = m["k"], 0.3
+    assert float(np.max(np.abs(np.asarray(sb.state.particles.v)))) <= m["amplitude"] * m["omega"] / math.tanh(k * d)
+    with pytest.raises(ValueError, match="wave_box: settle must be a time >= 0 s"):
+        rj.scenes.wave_box(dx=0.05, settle=-1.0)
