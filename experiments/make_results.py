@@ -1448,15 +1448,16 @@ def sec_waves(doc: Doc):
               "that is not the wave); `KE y`, `KE rot.`: at the end, over the wave's start energy, the kinetic energy "
               "of the sideways velocities (none in a 2D wave) and of the x-z velocities left after fitting the box's "
               "potential-flow modes 1-6 (spurious vorticity and particle noise). `settle`: seconds of still-water "
-              "relaxation (`scenes.settle`) before the wave (0: the cubic lattice).")
+              "relaxation (`scenes.settle`) before the wave (0: the cubic lattice). `walls`: the wall model of the bed "
+              "(`adami`, the default; `dynamic`, Crespo's dynamic boundary particles).")
         rows = [[r["variant"], r.get("diffusion", "fourtakas" if r["variant"] != "no-diffusion" else "none"),
-                 r.get("delta", 0.1), r["dx"],
+                 r.get("delta", 0.1), r.get("walls", "adami"), r["dx"],
                  r["h_over_dx"], r.get("cfl", 0.25), r.get("c0_over_sqrt_gd", 15.0), r["a_over_dx"], r["ka"], r["n_fluid"], r["nu_eff"],
                  r["amp_first_period"], r["decay_per_period"], r["decay_per_wavelength"], r["lamb_per_wavelength"],
                  r["bed_per_wavelength"], f"{r['omega_over_theory']:.4f}", r.get("settle", 0.0),
                  r.get("energy_lost_over_mode_lost", "-"), r.get("ke_y_over_wave_energy", "-"),
                  r.get("ke_rotational_over_wave_energy", "-"), r["wall_s"], r.get("date")] for r in recs]
-        doc.p(table(["variant", "diffusion", "delta", "dx [m]", "h/dx", "CFL", "c0 / sqrt(g d)", "a/dx", "ka", "n_fluid", "nu eff. [m^2/s]", "mode after 1 T / a",
+        doc.p(table(["variant", "diffusion", "delta", "walls", "dx [m]", "h/dx", "CFL", "c0 / sqrt(g d)", "a/dx", "ka", "n_fluid", "nu eff. [m^2/s]", "mode after 1 T / a",
                      "decay / T", "decay / L", "Lamb / L", "bed / L", "omega / theory", "settle [s]", "dissipated",
                      "KE y", "KE rot.", "wall s", "date"], rows))
     recs = doc.records("impulse_waves.jsonl", "python experiments/impulse_waves.py --scheme SCHEME [--start S] "
@@ -1491,7 +1492,7 @@ def sec_waves(doc: Doc):
         groups = sorted({(r.get("scheme", "wcsph"), r["dx"], bool(r.get("guided"))) for r in recs})
         for sch, dx_, guided in groups:
             rr = [r for r in recs if (r.get("scheme", "wcsph"), r["dx"], bool(r.get("guided"))) == (sch, dx_, guided)
-                  and r.get("a_M_from_4h") is not None]
+                  and r.get("a_M_from_4h") is not None and r.get("H_M_from_4h") is not None]
             if len(rr) >= 2:
                 a = _np.log([r["a_M_from_4h"] / r["a_M_fit"] for r in rr])
                 H = _np.log([r["H_M_from_4h"] / r["H_M_fit"] for r in rr])

@@ -15,8 +15,14 @@ across the box, ``validation.wave_mode``) gives, from the second period on:
 
 Variants (``--variant``): ``base`` (the flume's WCSPH: artificial alpha 0.02, Fourtakas diffusion,
 h = 1.5 dx, bed viscosity 1), ``laminar`` (Laminar nu = 1e-6), ``free-slip`` (bed viscosity 0),
-``alpha0.005``, ``no-diffusion``; ``--diffusion NAME`` replaces the density diffusion; ``--cfl``,
-``--c0-factor``, ``--h-factor``. One JSON line per run to ``results/wave_box.jsonl``.
+``alpha0.005``, ``no-diffusion``; ``--diffusion NAME`` / ``--walls NAME`` replace the density
+diffusion / the wall model; ``--delta``, ``--cfl``, ``--c0-factor``, ``--h-factor``; ``--settle S``
+starts from water relaxed for S seconds. One JSON line per run to ``results/wave_box.jsonl``.
+
+The energy budget: ``energy_lost_over_mode_lost`` is the fluid's total energy lost over the wave
+mode's energy lost in the fit window (1: all of the wave's loss is dissipated; less: the rest stays
+in the water as motion that is not the wave); ``ke_y_over_wave_energy`` and
+``ke_rotational_over_wave_energy`` are that motion at the end (``_noise``).
 
     python experiments/wave_box.py --dx 0.03 --variant base --periods 8
 """
@@ -37,7 +43,8 @@ DEPTH, G = 0.3, 9.81
 
 
 def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion: str | None = None,
-          cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0, delta: float = 0.1):
+          cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0, delta: float = 0.1,
+          walls: str | None = None):
     """``scenes.wave_box`` with the variant's terms and constants."""
     import rockjax as rj
 
@@ -54,19 +61,22 @@ def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion:
         raise SystemExit(f"unknown variant {variant!r}")
     if diffusion is not None:
         terms["diffusion"] = rj.sph.by_name("diffusion", diffusion)
+    if walls is not None:
+        terms["walls"] = rj.sph.by_name("walls", walls)
     return rj.scenes.wave_box(dx=dx, depth=DEPTH, amplitude=amplitude, h_factor=h_factor, scheme=rj.WCSPH(**terms),
                               cfl=cfl, c0=c0_factor * math.sqrt(G * DEPTH), settle=settle, delta=delta, **kw)
 
 
 def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: float, diffusion: str | None = None,
-        cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0, delta: float = 0.1) -> dict:
+        cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0, delta: float = 0.1,
+        walls: str | None = None) -> dict:
     import jax.numpy as jnp
 
     import rockjax as rj
     from rockjax.observables import energies, fluid_mass, gauge_elevation
     from rockjax.validation import wave_mode
 
-    scene = build(dx, amplitude, variant, h_factor, diffusion, cfl, c0_factor, settle, delta)
+    scene = build(dx, amplitude, variant, h_factor, diffusion, cfl, c0_factor, settle, delta, walls)
     m = scene.meta
     L, k, omega = m["wavelength"], m["k"], m["omega"]
     T = 2 * math.pi / omega
@@ -104,7 +114,7 @@ def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: flo
     no_slip = float(fl.wall_viscosity) > 0
     mu_bed = omega ** 3 * stokes / (4 * G * cg * math.sinh(k * DEPTH) ** 2) * cg if no_slip else 0.0
     noise = _noise(res.frames, L, float(fl.rho0) * dx ** 3, e_wave)
-    return dict(experiment="wave_box", variant=variant, settle=settle, delta=delta, diffusion=scene.config.scheme.diffusion.name, dx=dx,
+    return dict(experiment="wave_box", variant=variant, settle=settle, delta=delta, walls=scene.config.scheme.walls.name, diffusion=scene.config.scheme.diffusion.name, dx=dx,
                 cfl=scene.config.cfl, c0_over_sqrt_gd=c0_factor, dt=scene.config.dt, h_over_dx=float(fl.h) / dx,
                 amplitude=amplitude,
                 ka=k * amplitude, a_over_dx=amplitude / dx, kd=k * DEPTH, L=L, periods=periods,
@@ -157,12 +167,13 @@ def main():
     ap.add_argument("--diffusion", default=None, help="density diffusion by name (sph.by_name): none, molteni, "
                     "fourtakas (the scenes' default), fourtakas_surface, antuono")
     ap.add_argument("--h-factor", type=float, default=1.5)
+    ap.add_argument("--walls", default=None, help="the wall model by name (sph.by_name): adami (default), dynamic")
     ap.add_argument("--delta", type=float, default=0.1, help="the density diffusion's delta (Params.fluid.delta)")
     ap.add_argument("--settle", type=float, default=0.0, help="s of still-water relaxation before the wave "
                     "(scenes.settle; 0: the cubic lattice)")
     ap.add_argument("--out", default=str(HERE / "results" / "wave_box.jsonl"))
     a = ap.parse_args()
-    rec = run(a.dx, a.amplitude, a.variant, a.periods, a.h_factor, a.diffusion, a.cfl, a.c0_factor, a.settle, a.delta)
+    rec = run(a.dx, a.amplitude, a.variant, a.periods, a.h_factor, a.diffusion, a.cfl, a.c0_factor, a.settle, a.delta, a.walls)
     emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown={k: v for k, v in rec.items() if k != "amp_series"})
 
 
