@@ -16,7 +16,7 @@ across the box, ``validation.wave_mode``) gives, from the second period on:
 Variants (``--variant``): ``base`` (the flume's WCSPH: artificial alpha 0.02, Fourtakas diffusion,
 h = 1.5 dx, bed viscosity 1), ``laminar`` (Laminar nu = 1e-6), ``free-slip`` (bed viscosity 0),
 ``alpha0.005``, ``no-diffusion``; ``--diffusion NAME`` / ``--walls NAME`` replace the density
-diffusion / the wall model; ``--delta``, ``--cfl``, ``--c0-factor``, ``--h-factor``; ``--settle S``
+diffusion / the wall model; ``--delta``, ``--cfl``, ``--c0-factor``, ``--h-factor``; ``--scheme dfsph`` (``DFSPH`` with its own kernel and h); ``--settle S``
 starts from water relaxed for S seconds. One JSON line per run to ``results/wave_box.jsonl``.
 
 The energy budget: ``energy_lost_over_mode_lost`` is the fluid's total energy lost over the wave
@@ -44,8 +44,9 @@ DEPTH, G = 0.3, 9.81
 
 def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion: str | None = None,
           cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0, delta: float = 0.1,
-          walls: str | None = None):
-    """``scenes.wave_box`` with the variant's terms and constants."""
+          walls: str | None = None, scheme: str = "wcsph"):
+    """``scenes.wave_box`` with the variant's terms and constants (``scheme`` "dfsph": ``DFSPH``
+    with the variant's viscosity; it has no density diffusion or wall model to replace)."""
     import rockjax as rj
 
     kw, terms = {}, {}
@@ -63,20 +64,32 @@ def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion:
         terms["diffusion"] = rj.sph.by_name("diffusion", diffusion)
     if walls is not None:
         terms["walls"] = rj.sph.by_name("walls", walls)
-    return rj.scenes.wave_box(dx=dx, depth=DEPTH, amplitude=amplitude, h_factor=h_factor, scheme=rj.WCSPH(**terms),
+    if scheme.startswith("dfsph"):  # "dfsph" or "dfsph:KERNEL" (sph.by_name), relaxation within the sweeps' bound
+        from rockjax.sph.dfsph import jacobi_lambda_max
+
+        kw_d = {k: v for k, v in terms.items() if k == "viscosity"}
+        if ":" in scheme:
+            kw_d["kernel"] = rj.sph.by_name("kernel", scheme.split(":", 1)[1])
+        sch = rj.DFSPH(**kw_d)
+        if h_factor is not None:
+            sch = sch.replace(relaxation=min(sch.relaxation, round(0.9 * 2.0 / jacobi_lambda_max(sch.kernel, h_factor), 2)))
+    else:
+        sch = rj.WCSPH(**terms)
+    return rj.scenes.wave_box(dx=dx, depth=DEPTH, amplitude=amplitude, h_factor=h_factor, scheme=sch,
                               cfl=cfl, c0=c0_factor * math.sqrt(G * DEPTH), settle=settle, delta=delta, **kw)
 
 
 def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: float, diffusion: str | None = None,
         cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0, delta: float = 0.1,
-        walls: str | None = None) -> dict:
+        walls: str | None = None, scheme: str = "wcsph") -> dict:
     import jax.numpy as jnp
 
     import rockjax as rj
     from rockjax.observables import energies, fluid_mass, gauge_elevation
     from rockjax.validation import wave_mode
 
-    scene = build(dx, amplitude, variant, h_factor, diffusion, cfl, c0_factor, settle, delta, walls)
+    scene = build(dx, amplitude, variant, h_factor, diffusion, cfl, c0_factor, settle, delta, walls, scheme)
+    sch = scene.config.scheme
     m = scene.meta
     L, k, omega = m["wavelength"], m["k"], m["omega"]
     T = 2 * math.pi / omega
@@ -114,7 +127,9 @@ def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: flo
     no_slip = float(fl.wall_viscosity) > 0
     mu_bed = omega ** 3 * stokes / (4 * G * cg * math.sinh(k * DEPTH) ** 2) * cg if no_slip else 0.0
     noise = _noise(res.frames, L, float(fl.rho0) * dx ** 3, e_wave)
-    return dict(experiment="wave_box", variant=variant, settle=settle, delta=delta, walls=scene.config.scheme.walls.name, diffusion=scene.config.scheme.diffusion.name, dx=dx,
+    return dict(experiment="wave_box", scheme=scheme, kernel=sch.kernel.name, relaxation=getattr(sch, "relaxation", None), variant=variant, settle=settle, delta=delta,
+                walls=sch.walls.name if hasattr(sch, "walls") else sch.wall_pressure,
+                diffusion=sch.diffusion.name if hasattr(sch, "diffusion") else "none", dx=dx,
                 cfl=scene.config.cfl, c0_over_sqrt_gd=c0_factor, dt=scene.config.dt, h_over_dx=float(fl.h) / dx,
                 amplitude=amplitude,
                 ka=k * amplitude, a_over_dx=amplitude / dx, kd=k * DEPTH, L=L, periods=periods,
@@ -166,14 +181,16 @@ def main():
     ap.add_argument("--c0-factor", type=float, default=15.0, help="c0 / sqrt(g d) (the piston flume's 15)")
     ap.add_argument("--diffusion", default=None, help="density diffusion by name (sph.by_name): none, molteni, "
                     "fourtakas (the scenes' default), fourtakas_surface, antuono")
-    ap.add_argument("--h-factor", type=float, default=1.5)
+    ap.add_argument("--h-factor", type=float, default=None, help="h / dx (default 1.5 for wcsph, the scheme's own for dfsph)")
+    ap.add_argument("--scheme", default="wcsph", help="wcsph, dfsph or dfsph:KERNEL (e.g. dfsph:wendland_c2)")
     ap.add_argument("--walls", default=None, help="the wall model by name (sph.by_name): adami (default), dynamic")
     ap.add_argument("--delta", type=float, default=0.1, help="the density diffusion's delta (Params.fluid.delta)")
     ap.add_argument("--settle", type=float, default=0.0, help="s of still-water relaxation before the wave "
                     "(scenes.settle; 0: the cubic lattice)")
     ap.add_argument("--out", default=str(HERE / "results" / "wave_box.jsonl"))
     a = ap.parse_args()
-    rec = run(a.dx, a.amplitude, a.variant, a.periods, a.h_factor, a.diffusion, a.cfl, a.c0_factor, a.settle, a.delta, a.walls)
+    hf = a.h_factor if a.h_factor is not None or a.scheme.startswith("dfsph") else 1.5
+    rec = run(a.dx, a.amplitude, a.variant, a.periods, hf, a.diffusion, a.cfl, a.c0_factor, a.settle, a.delta, a.walls, a.scheme)
     emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown={k: v for k, v in rec.items() if k != "amp_series"})
 
 
