@@ -52,6 +52,34 @@ def build(*, paddle: str, kh: float, dx: float, height: float, scheme: str, peri
     return scene, w, t_end
 
 
+def along_flume(gauges: list[dict], k: float) -> tuple[float | None, float | None]:
+    """``(decay per wavelength, k fit / k)`` from the gauges at 2 depths and beyond (records of
+    ``run``): the slope of ln H, and the slope of the first-harmonic phases. The phases are
+    unwrapped about linear theory's ``k x`` (the gauges may stand more than half a wavelength
+    apart: 0.6 m at kh 2 is 0.64 L), so a fitted k within ~half a wavelength's phase of it is found."""
+    far = [q for q in gauges if q["x_over_depth"] >= 2 and q["periods"] > 0]
+    if len(far) < 2:
+        return None, None
+    xs = np.array([q["x_over_depth"] * DEPTH for q in far])
+    L = 2 * math.pi / k
+    decay = float(1 - math.exp(np.polyfit(xs, np.log([q["H"] for q in far]), 1)[0] * L))
+    resid = np.angle(np.exp(1j * (np.array([q["phase"] for q in far]) - k * xs)))  # wrapped to (-pi, pi]
+    k_fit = k + float(np.polyfit(xs, np.unwrap(resid), 1)[0])
+    return decay, k_fit / k
+
+
+def reanalyse(path: str) -> None:
+    """Recompute ``decay_per_wavelength`` and ``k_fit_over_k`` of every record in ``path`` from its
+    stored gauge heights and phases (``along_flume``), in place."""
+    import json
+
+    recs = [json.loads(line) for line in open(path) if line.strip()]
+    for r in recs:
+        r["decay_per_wavelength"], r["k_fit_over_k"] = along_flume(r["gauges"], 2 * math.pi / r["wavelength"])
+    with open(path, "w") as f:
+        f.writelines(json.dumps(r) + "\n" for r in recs)
+
+
 def run(*, paddle: str, kh: float, dx: float, height: float, scheme: str = "wcsph",
         periods_measured: float = 4.0) -> dict:
     import rockjax as rj
@@ -76,20 +104,14 @@ def run(*, paddle: str, kh: float, dx: float, height: float, scheme: str = "wcsp
         ph = wave_phase(t, eta[:, j], period=T, t_start=t_start, t_stop=float(t[-1]))
         gauges.append(dict(x_over_depth=g, periods=n, H=H, H_over_S=H / stroke, H_over_target=H / stroke / theory,
                            H2_over_H=H2 / H if H > 0 else None, phase=ph))
-    far = [q for q in gauges if q["x_over_depth"] >= 2 and q["periods"] > 0]
-    xs = np.array([q["x_over_depth"] * DEPTH for q in far])
-    L = 2 * math.pi / k
-    decay = k_fit = None
-    if len(far) >= 2:
-        decay = float(1 - math.exp(np.polyfit(xs, np.log([q["H"] for q in far]), 1)[0] * L))
-        k_fit = float(np.polyfit(xs, np.unwrap([q["phase"] for q in far]), 1)[0])
+    decay, k_fit_over_k = along_flume(gauges, k)
     fl = scene.params.fluid
     return dict(experiment="paddle_transfer", paddle=paddle, scheme=scheme, kh=kh, depth=DEPTH, dx=dx,
                 h_over_dx=float(fl.h) / dx, target_height=height, H_over_dx=height / dx, kH_over_2=k * height / 2,
                 stroke=stroke, theory_H_over_S=theory, period=T, wavelength=L, flat_length=scene.meta["flat_length"],
                 t_end=t_end, gauges=gauges,
                 H_over_target_2_4=float(np.mean([q["H_over_target"] for q in gauges if q["x_over_depth"] in (2, 3, 4)])),
-                decay_per_wavelength=decay, k_fit_over_k=None if k_fit is None else k_fit / k,
+                decay_per_wavelength=decay, k_fit_over_k=k_fit_over_k,
                 n_fluid=scene.config.n_fluid, wall_s=wall, sim_s_per_wall_s=t_end / wall, load=os.getloadavg()[0])
 
 
@@ -102,7 +124,10 @@ def main():
     ap.add_argument("--scheme", choices=["wcsph", "dfsph"], default="wcsph")
     ap.add_argument("--periods", type=float, default=4.0, help="periods measured at the last gauge")
     ap.add_argument("--out", default=str(HERE / "results" / "paddle_transfer.jsonl"))
+    ap.add_argument("--reanalyse", action="store_true", help="recompute the along-flume fits of --out's records")
     a = ap.parse_args()
+    if a.reanalyse:
+        return reanalyse(a.out)
     rec = run(paddle=a.paddle, kh=a.kh, dx=a.dx, height=a.height, scheme=a.scheme, periods_measured=a.periods)
     emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown={k: v for k, v in rec.items() if k != "gauges"})
 
