@@ -105,6 +105,7 @@ def run(*, paddle: str, kh: float, dx: float, height: float, scheme: str = "wcsp
         gauges.append(dict(x_over_depth=g, periods=n, H=H, H_over_S=H / stroke, H_over_target=H / stroke / theory,
                            H2_over_H=H2 / H if H > 0 else None, phase=ph))
     decay, k_fit_over_k = along_flume(gauges, k)
+    L = 2 * math.pi / k
     fl = scene.params.fluid
     return dict(experiment="paddle_transfer", paddle=paddle, scheme=scheme, kh=kh, depth=DEPTH, dx=dx,
                 h_over_dx=float(fl.h) / dx, target_height=height, H_over_dx=height / dx, kH_over_2=k * height / 2,
