@@ -16,8 +16,8 @@ across the box, ``validation.wave_mode``) gives, from the second period on:
 Variants (``--variant``): ``base`` (the flume's WCSPH: artificial alpha 0.02, Fourtakas diffusion,
 h = 1.5 dx, bed viscosity 1), ``laminar`` (Laminar nu = 1e-6), ``free-slip`` (bed viscosity 0),
 ``alpha0.005``, ``no-diffusion``; ``--diffusion NAME`` / ``--walls NAME`` replace the density
-diffusion / the wall model; ``--delta``, ``--cfl``, ``--c0-factor``, ``--h-factor``; ``--scheme dfsph`` (``DFSPH`` with its own kernel and h); ``--settle S``
-starts from water relaxed for S seconds. One JSON line per run to ``results/wave_box.jsonl``.
+diffusion / the wall model; ``--delta``, ``--cfl``, ``--c0-factor``, ``--h-factor``; ``--scheme dfsph``
+(``DFSPH`` with its own kernel and h); ``--settle S`` starts from water relaxed for S seconds. One JSON line per run to ``results/wave_box.jsonl``.
 
 The energy budget: ``energy_lost_over_mode_lost`` is the fluid's total energy lost over the wave
 mode's energy lost in the fit window (1: all of the wave's loss is dissipated; less: the rest stays
