@@ -34,8 +34,9 @@ DEPTH = 0.3
 GAUGE_DEPTHS = (1, 2, 3, 4, 6)
 
 
-def build(*, paddle: str, kh: float, dx: float, height: float, periods_measured: float):
-    """The flume for ``kh`` (flat = gauges + one wavelength of sponge + 0.3 m) and its run time."""
+def build(*, paddle: str, kh: float, dx: float, height: float, periods_measured: float, shifting: str = "none"):
+    """The flume for ``kh`` (flat = gauges + one wavelength of sponge + 0.3 m) and its run time;
+    ``shifting``: the particle-shifting law by name (``sph.shifting``)."""
     import rockjax as rj
     from rockjax.validation import linear_wave
 
@@ -48,7 +49,8 @@ def build(*, paddle: str, kh: float, dx: float, height: float, periods_measured:
                                  period=w["period"], duration=t_end + 3 * w["period"], flat_length=flat, beach_slope=0.3,
                                  sponge_length=L, sponge_strength=2 * w["omega"],
                                  gauge_x=[g * DEPTH for g in GAUGE_DEPTHS],
-                                 scheme=rj.WCSPH(viscosity=rj.sph.Laminar()))
+                                 scheme=rj.WCSPH(viscosity=rj.sph.Laminar(),
+                                                 shifting=rj.sph.by_name("shifting", shifting)))
     return scene, w, t_end
 
 
@@ -80,13 +82,15 @@ def reanalyse(path: str) -> None:
         f.writelines(json.dumps(r) + "\n" for r in recs)
 
 
-def run(*, paddle: str, kh: float, dx: float, height: float, periods_measured: float = 4.0) -> dict:
+def run(*, paddle: str, kh: float, dx: float, height: float, periods_measured: float = 4.0,
+        shifting: str = "none") -> dict:
     import rockjax as rj
     from rockjax.blocks.paths import flap_transfer, piston_transfer
     from rockjax.observables import scene_observer
     from rockjax.validation import wave_height, wave_phase
 
-    scene, w, t_end = build(paddle=paddle, kh=kh, dx=dx, height=height, periods_measured=periods_measured)
+    scene, w, t_end = build(paddle=paddle, kh=kh, dx=dx, height=height, periods_measured=periods_measured,
+                            shifting=shifting)
     T, k, cg = w["period"], w["k"], w["cg"]
     t0 = time.perf_counter()
     res = rj.simulate(scene, t_end=t_end, frame_dt=T / 24, observe=scene_observer(scene.meta), progress=False)
@@ -105,7 +109,7 @@ def run(*, paddle: str, kh: float, dx: float, height: float, periods_measured: f
     decay, k_fit_over_k = along_flume(gauges, k)
     L = 2 * math.pi / k
     fl = scene.params.fluid
-    return dict(experiment="paddle_transfer", paddle=paddle, scheme="wcsph", kh=kh, depth=DEPTH, dx=dx,
+    return dict(experiment="paddle_transfer", paddle=paddle, scheme="wcsph", shifting=shifting, kh=kh, depth=DEPTH, dx=dx,
                 h_over_dx=float(fl.h) / dx, target_height=height, H_over_dx=height / dx, kH_over_2=k * height / 2,
                 stroke=stroke, theory_H_over_S=theory, period=T, wavelength=L, flat_length=scene.meta["flat_length"],
                 t_end=t_end, gauges=gauges,
@@ -121,12 +125,13 @@ def main():
     ap.add_argument("--dx", type=float, default=0.03)
     ap.add_argument("--height", type=float, default=0.04, help="target wave height m")
     ap.add_argument("--periods", type=float, default=4.0, help="periods measured at the last gauge")
+    ap.add_argument("--shifting", default="none", help="particle shifting by name (sph.shifting): none, fickian")
     ap.add_argument("--out", default=str(HERE / "results" / "paddle_transfer.jsonl"))
     ap.add_argument("--reanalyse", action="store_true", help="recompute the along-flume fits of --out's records")
     a = ap.parse_args()
     if a.reanalyse:
         return reanalyse(a.out)
-    rec = run(paddle=a.paddle, kh=a.kh, dx=a.dx, height=a.height, periods_measured=a.periods)
+    rec = run(paddle=a.paddle, kh=a.kh, dx=a.dx, height=a.height, periods_measured=a.periods, shifting=a.shifting)
     emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown={k: v for k, v in rec.items() if k != "gauges"})
 
 

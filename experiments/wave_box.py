@@ -44,9 +44,10 @@ DEPTH, G = 0.3, 9.81
 
 def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion: str | None = None,
           cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0, delta: float = 0.1,
-          walls: str | None = None, scheme: str = "wcsph"):
+          walls: str | None = None, scheme: str = "wcsph", options: dict | None = None):
     """``scenes.wave_box`` with the variant's terms and constants (``scheme`` "dfsph": ``DFSPH``
-    with the variant's viscosity; it has no density diffusion or wall model to replace)."""
+    with the variant's viscosity; it has no density diffusion or wall model to replace;
+    ``options``: further fields of the scheme object, ``Scheme.replace(**options)``)."""
     import rockjax as rj
 
     kw, terms = {}, {}
@@ -75,20 +76,27 @@ def build(dx: float, amplitude: float, variant: str, h_factor: float, diffusion:
             sch = sch.replace(relaxation=min(sch.relaxation, round(0.9 * 2.0 / jacobi_lambda_max(sch.kernel, h_factor), 2)))
     else:
         sch = rj.WCSPH(**terms)
+    if options:
+        options = dict(options)
+        if "shifting" in options:  # "fickian" or "fickian:A=1,R=0" (sph.shifting)
+            name, _, args = str(options["shifting"]).partition(":")
+            kw_s = _options([a for a in args.split(",") if a]) if args else {}
+            options["shifting"] = rj.sph.by_name("shifting", name, **kw_s)
+        sch = sch.replace(**options)
     return rj.scenes.wave_box(dx=dx, depth=DEPTH, amplitude=amplitude, h_factor=h_factor, scheme=sch,
                               cfl=cfl, c0=c0_factor * math.sqrt(G * DEPTH), settle=settle, delta=delta, **kw)
 
 
 def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: float, diffusion: str | None = None,
         cfl: float | None = None, c0_factor: float = 15.0, settle: float = 0.0, delta: float = 0.1,
-        walls: str | None = None, scheme: str = "wcsph") -> dict:
+        walls: str | None = None, scheme: str = "wcsph", options: dict | None = None) -> dict:
     import jax.numpy as jnp
 
     import rockjax as rj
     from rockjax.observables import energies, fluid_mass, gauge_elevation
     from rockjax.validation import wave_mode
 
-    scene = build(dx, amplitude, variant, h_factor, diffusion, cfl, c0_factor, settle, delta, walls, scheme)
+    scene = build(dx, amplitude, variant, h_factor, diffusion, cfl, c0_factor, settle, delta, walls, scheme, options)
     sch = scene.config.scheme
     m = scene.meta
     L, k, omega = m["wavelength"], m["k"], m["omega"]
@@ -127,7 +135,7 @@ def run(dx: float, amplitude: float, variant: str, periods: float, h_factor: flo
     no_slip = float(fl.wall_viscosity) > 0
     mu_bed = omega ** 3 * stokes / (4 * G * cg * math.sinh(k * DEPTH) ** 2) * cg if no_slip else 0.0
     noise = _noise(res.frames, L, float(fl.rho0) * dx ** 3, e_wave)
-    return dict(experiment="wave_box", scheme=scheme, kernel=sch.kernel.name, relaxation=getattr(sch, "relaxation", None), variant=variant, settle=settle, delta=delta,
+    return dict(experiment="wave_box", scheme=scheme, options=options or {}, shifting=str(getattr(sch, "shifting", "")), kernel=sch.kernel.name, relaxation=getattr(sch, "relaxation", None), variant=variant, settle=settle, delta=delta,
                 walls=sch.walls.name if hasattr(sch, "walls") else sch.wall_pressure,
                 diffusion=sch.diffusion.name if hasattr(sch, "diffusion") else "none", dx=dx,
                 cfl=scene.config.cfl, c0_over_sqrt_gd=c0_factor, dt=scene.config.dt, h_over_dx=float(fl.h) / dx,
@@ -171,6 +179,26 @@ def _noise(frames, L: float, m: float, e_wave: float) -> dict:
                 ke_rotational_over_wave_energy=0.5 * m * float(np.sum(resid ** 2)) / e_wave)
 
 
+def _options(items: list[str]) -> dict:
+    """``FIELD=VALUE`` strings as a dict: true/false, ints, floats, else the string."""
+    out = {}
+    for item in items:
+        key, _, text = item.partition("=")
+        low = text.strip().lower()
+        if low in ("true", "false"):
+            out[key.strip()] = low == "true"
+            continue
+        for cast in (int, float):
+            try:
+                out[key.strip()] = cast(text)
+                break
+            except ValueError:
+                pass
+        else:
+            out[key.strip()] = text
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--dx", type=float, default=0.03)
@@ -187,10 +215,14 @@ def main():
     ap.add_argument("--delta", type=float, default=0.1, help="the density diffusion's delta (Params.fluid.delta)")
     ap.add_argument("--settle", type=float, default=0.0, help="s of still-water relaxation before the wave "
                     "(scenes.settle; 0: the cubic lattice)")
+    ap.add_argument("--option", action="append", default=[], metavar="FIELD=VALUE",
+                    help="a field of the scheme object (repeatable), e.g. divergence_solve=false, tolerance=1e-5, "
+                    "shifting=fickian:A=2,R=0.2 (sph.shifting)")
     ap.add_argument("--out", default=str(HERE / "results" / "wave_box.jsonl"))
     a = ap.parse_args()
     hf = a.h_factor if a.h_factor is not None or a.scheme.startswith("dfsph") else 1.5
-    rec = run(a.dx, a.amplitude, a.variant, a.periods, hf, a.diffusion, a.cfl, a.c0_factor, a.settle, a.delta, a.walls, a.scheme)
+    rec = run(a.dx, a.amplitude, a.variant, a.periods, hf, a.diffusion, a.cfl, a.c0_factor, a.settle, a.delta, a.walls,
+              a.scheme, _options(a.option))
     emit({**rec, "date": time.strftime("%Y-%m-%d")}, a.out, shown={k: v for k, v in rec.items() if k != "amp_series"})
 
 

@@ -86,7 +86,8 @@ Form (b): a general scene
     # speed), h_factor and cfl (default: the scheme's), alpha, nu [m^2/s], delta, wall_viscosity (0 = free-slip walls and
     # blocks), skin_factor (Verlet skin / dx; default the scheme's, 0.3 with WCSPH, 0.6 with moving blocks),
     # rebuild_every; kernel,
-    # viscosity, wall_model, density_diffusion (water-only scenes; with blocks the defaults hold);
+    # viscosity, wall_model, density_diffusion, shifting ("none" or "fickian": particle shifting,
+    # sph.shifting) (water-only scenes; with blocks the defaults hold);
     # seed_gradient ("spiky", the paper's, or "poly6": the seed scheme's pressure-gradient kernel)
 
     [coupling]                         # water <-> moving blocks
@@ -344,6 +345,7 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
             "viscosity": _choice(tuple(_term_names("viscosity"))),
             "wall_model": _choice(tuple(_term_names("walls"))),
             "density_diffusion": _choice(tuple(_term_names("diffusion"))),
+            "shifting": _choice(tuple(_term_names("shifting"))),
             "seed_gradient": _choice(tuple(_term_names("seed_gradient")))},
     "coupling": {"method": _choice(("penalty", "boundary_particles", "boundary_integral"), "penalty"),
                  "stiffness": _num(unit="1/s^2", **_POS), "damping": _num(unit="1/s", **_NONNEG),
@@ -567,7 +569,7 @@ def _builtin_value(ctx: _Ctx, path: tuple, v, hint, default):
         try:
             return _schemes.from_names(**table)
         except (TypeError, ValueError) as exc:
-            ctx.fail(path, f"{exc} (keys: scheme, kernel, viscosity, walls, diffusion, gradient)")
+            ctx.fail(path, f"{exc} (keys: scheme, kernel, viscosity, walls, diffusion, shifting, gradient)")
     enum_cls = next((t for t in types if isinstance(t, type) and issubclass(t, enum.Enum)), None)
     if enum_cls is None and isinstance(default, enum.Enum):
         enum_cls = type(default)
@@ -1323,7 +1325,7 @@ def _load_general(ctx: _Ctx, doc: dict, overrides: dict) -> Scene:
 
 #: scene-file keys of ``[sph]`` -> the scheme's term slots (``sph.schemes.from_names``)
 _TERM_KEYS = {"kernel": "kernel", "viscosity": "viscosity", "wall_model": "walls", "density_diffusion": "diffusion",
-              "seed_gradient": "gradient"}
+              "shifting": "shifting", "seed_gradient": "gradient"}
 
 
 def _fluid_scheme(ctx, sph: dict):

@@ -14,7 +14,7 @@ velocities leave the density at rho0 (the *density solve*) and carry no compress
    at a free surface a missing neighbour is not compression);
 3. non-pressure accelerations (gravity, the viscous term ``DFSPH.viscosity``): ``v* = v + dt a_np``;
 4. density solve on ``v*``: residual ``rho_i / rho0 + dt D_i(v*) - 1``;
-5. ``x(t + dt) = x + dt v``.
+5. ``x(t + dt) = x + dt v`` (plus the particle shift of ``DFSPH.shifting``, ``sph.shifting``).
 
 The pressure acts as ``a_i = -sum_j V_j (kappa_i + kappa_j) grad W_ij`` over fluid j and
 ``-sum_b V_b (kappa_i + kappa_b) grad W_ib`` over wall and block particles b; momentum-conserving
@@ -523,7 +523,10 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
                 _density_residual, dt=dt, weight=_WALL_WEIGHT[scheme.wall_pressure]), fluid_row, fluid_row,
                 tolerance=scheme.tolerance, min_iterations=scheme.min_iterations, model=scheme.wall_pressure, **loop)
     v = jnp.where(fluid[:, None], sd.v, P.v)
-    x_new = wrap_positions(jnp.where(fluid[:, None], P.x + dt * v, P.x), config.grid)
+    drift = dt * v
+    if scheme.shifting.active:  # ``sph.shifting``: on the step's start (x, v), with the drift
+        drift = drift + scheme.shifting.displacement(P, nbrs, params, config)
+    x_new = wrap_positions(jnp.where(fluid[:, None], P.x + drift, P.x), config.grid)
     kappa = sd.kappa + sv.kappa
     n = P.x.shape[0]
     pad = lambda c: jnp.concatenate([c, jnp.zeros((n - nf,), c.dtype)])  # noqa: E731

@@ -10,7 +10,8 @@ the initial densities of a still water column and its elastic energy. Terms are 
 scheme is built: a wrong type, or a combination that cannot work, is a ``ValueError`` there.
 
 Where to add things: a viscosity in ``sph.viscosity``, a density diffusion in ``sph.diffusion``,
-a kernel in ``sph.kernels``, a wall model in ``sph.walls``, a scheme here (one class each).
+a kernel in ``sph.kernels``, a wall model in ``sph.walls``, a particle-shifting law in
+``sph.shifting``, a scheme here (one class each).
 Scene files and the command line find them by name (``from_names``; ``sph.terms``).
 """
 
@@ -25,6 +26,7 @@ import numpy as np
 
 from .diffusion import DensityDiffusion, Fourtakas
 from .kernels import CubicSpline, Kernel, SeedGradientKernel, SpikyGradient, WendlandC2
+from .shifting import NoShifting, Shifting
 from .terms import Term, by_name, names
 from .viscosity import Artificial, Viscosity
 from .walls import Adami, WallModel
@@ -148,10 +150,11 @@ class WCSPH(FluidScheme):
     walls: WallModel = Adami()
     diffusion: DensityDiffusion = Fourtakas()
     gamma: float = 7.0
+    shifting: Shifting = NoShifting()
 
     def __post_init__(self):
         for field, cls in (("kernel", Kernel), ("viscosity", Viscosity), ("walls", WallModel),
-                           ("diffusion", DensityDiffusion)):
+                           ("diffusion", DensityDiffusion), ("shifting", Shifting)):
             _check_type("WCSPH", field, getattr(self, field), cls)
         if not (self.gamma > 1 and math.isfinite(self.gamma)):
             raise ValueError(f"WCSPH: gamma (the Tait exponent) must be a finite number > 1 (got {self.gamma})")
@@ -267,9 +270,11 @@ class DFSPH(FluidScheme):
     wall_pressure: str = "extrapolated"
     gradient: str = "unrolled"
     adjoint_iterations: int = 100
+    shifting: Shifting = NoShifting()
 
     def __post_init__(self):
         _check_type("DFSPH", "kernel", self.kernel, Kernel)
+        _check_type("DFSPH", "shifting", self.shifting, Shifting)
         if self.gradient not in ("unrolled", "implicit"):
             raise ValueError(f"DFSPH: gradient must be 'unrolled' (reverse mode through the sweeps) or 'implicit' "
                              f"(the implicit function theorem at the solve's result); got {self.gradient!r}")
@@ -430,14 +435,16 @@ class SeedScheme(FluidScheme):
 
 
 def from_names(scheme: str = "wcsph", *, kernel: str | None = None, viscosity: str | None = None,
-               walls: str | None = None, diffusion: str | None = None, gradient: str | None = None) -> FluidScheme:
+               walls: str | None = None, diffusion: str | None = None, gradient: str | None = None,
+               shifting: str | None = None) -> FluidScheme:
     """The scheme named ``scheme`` with terms by name (None: the scheme's default term), as scene
     files and the command line give them; a ``ValueError`` naming the unknown or inapplicable one."""
     cls = type(by_name("scheme", scheme))
     fields = {f.name for f in dataclasses.fields(cls)}
-    chosen = {"kernel": kernel, "viscosity": viscosity, "walls": walls, "diffusion": diffusion, "gradient": gradient}
+    chosen = {"kernel": kernel, "viscosity": viscosity, "walls": walls, "diffusion": diffusion, "gradient": gradient,
+              "shifting": shifting}
     family = {"kernel": "kernel", "viscosity": "viscosity", "walls": "walls", "diffusion": "diffusion",
-              "gradient": "seed_gradient"}
+              "gradient": "seed_gradient", "shifting": "shifting"}
     kwargs = {}
     for key, value in chosen.items():
         if value is None:

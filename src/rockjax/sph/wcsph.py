@@ -10,7 +10,8 @@
 * momentum-conserving pressure gradient ``-sum_j m_j (p_i + p_j)/(rho_i rho_j) grad W_ij``;
 * Monaghan artificial viscosity or a laminar (Morris / Lo & Shao) term;
 * velocity Verlet (kick-drift-kick) with one force evaluation per step; the density is advanced
-  like the positions, with the mid-step velocities (``advance``).
+  like the positions, with the mid-step velocities (``advance``); an optional particle shift
+  (``sph.shifting``) joins the drift.
 
 Speed: ``prime`` and the public sums compute the pair geometry, the kernel-gradient factor and the
 neighbour kinds once (``PairTerms``) and share them. A step's two passes (continuity, momentum)
@@ -434,7 +435,10 @@ def advance(P: Particles, nbrs: NeighbourList, params: Params, config: Config, *
     dynamic_walls = config.scheme.walls.dynamic
     evolving = fluid | ((kind == Kind.WALL) & dynamic_walls)
     v_half = jnp.where(fluid[:, None], P.v + 0.5 * dt * P.a, P.v)
-    x_new = wrap_positions(jnp.where(fluid[:, None], P.x + dt * v_half, P.x), config.grid)
+    drift = dt * v_half
+    if config.scheme.shifting.active:  # ``sph.shifting``: on the step's start (x, v), with the drift
+        drift = drift + config.scheme.shifting.displacement(P, nbrs, params, config)
+    x_new = wrap_positions(jnp.where(fluid[:, None], P.x + drift, P.x), config.grid)
     adami = nw > 0 and not dynamic_walls
     dynamic = nw > 0 and dynamic_walls
     w_fn = config.scheme.kernel.w

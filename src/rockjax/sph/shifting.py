@@ -1,0 +1,165 @@
+"""Particle shifting: a small displacement of each fluid particle, each step, down its neighbours'
+concentration gradient, that keeps the particles evenly spread (``WCSPH(shifting=...)``,
+``DFSPH(shifting=...)``).
+
+Why: a wave drives particles through one another; without a correction their arrangement drifts
+into clumps and voids, and the pair sums turn that disorder into particle noise that takes
+energy out of the wave (``experiments/wave_box.py``'s energy budget). Shifting is the standard
+remedy of incompressible and weakly compressible SPH for propagating waves (Lind et al. 2012,
+Skillen et al. 2013, Sun et al. 2017).
+
+The terms (one class each, a frozen dataclass with a ``name``; ``sph.by_name("shifting", NAME)``):
+
+* ``NoShifting`` (``"none"``, the default): particles move with the flow only;
+* ``Fickian`` (``"fickian"``): Fick's law with Skillen et al.'s (2013) diffusivity,
+  ``dr_i = -A h |v_i| dt grad C_i``, ``grad C_i = sum_j V_j (1 + R (W_ij / W(dx))^4) grad_i W_ij``
+  (with ``R`` > 0, Sun et al.'s (2017) anti-clumping weight, which keeps particle pairs from
+  collapsing onto each other); near the free surface (``div r_i`` below ``surface``) only the part
+  of ``dr`` tangent to it, ``(I - n n) dr`` with the outward normal ``n = -grad C0 / |grad C0|``
+  of the unweighted concentration ``C0`` (Lind et al. 2012: a free surface is not a void to
+  fill); a particle with ``div r_i`` below ``splash`` (a drop) is not shifted. ``div r_i =
+  -sum_j V_j (x_i - x_j) . grad_i W_ij`` is ~3 in a filled 3D lattice (``bulk_divergence``: the
+  thresholds are fractions of it); under a flat free surface (Wendland C2, h = 1.5 dx) it is 2.03 /
+  2.43 / 2.90 in the top three layers and 3.00 below: every layer whose kernel the surface cuts
+  must count as surface (the third layer's full shift, up into the surface's void, was 2e-4 dx a
+  step at 0.2 m/s), so the default ``surface`` is 0.985 of the bulk's. All neighbours count (walls and block particles fill the
+  kernel as water would).
+
+The displacement is applied with the step's drift, ``x' = x + dt v + dr`` (``displacement``, on
+the positions and velocities at the step's start; the densities and velocities are carried
+unchanged to the shifted position, an error of ``dr . grad`` of each, second order in the
+displacement for the smooth part). It is differentiable (a ``safe_norm`` for ``|v|`` and the
+normal), but the surface and splash thresholds switch: a particle crossing them changes its
+shift discontinuously (reverse mode then sees a kink, as for any SPH free-surface switch).
+
+To add a shifting law: subclass ``Shifting`` here as a frozen dataclass with a ``name`` and a
+``displacement``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from typing import ClassVar
+
+import jax
+import jax.numpy as jnp
+
+from ..types import Config, Kind, NeighbourList, Params, Particles
+from .neighbours import safe_norm
+from .terms import Term
+
+__all__ = ["Shifting", "NoShifting", "Fickian", "bulk_divergence"]
+
+
+class Shifting(Term):
+    """Base of the shifting laws. ``active``: the law moves anything (a scheme skips the pass
+    otherwise, so its program is unchanged)."""
+
+    family = "shifting"
+    active: ClassVar[bool] = True
+
+    def displacement(self, P: Particles, nbrs: NeighbourList, params: Params, config: Config):
+        """The shift [N, 3] m of every particle for the step (zero off the fluid rows)."""
+        raise NotImplementedError
+
+
+@dataclasses.dataclass(frozen=True)
+class NoShifting(Shifting):
+    """No shifting: particles move with the flow."""
+
+    name = "none"
+    active = False
+
+    def displacement(self, P, nbrs, params, config):
+        return jnp.zeros_like(P.x)
+
+
+@dataclasses.dataclass(frozen=True)
+class Fickian(Shifting):
+    """Fick's-law shifting with Skillen et al.'s diffusivity ``A h |v| dt`` (module docstring).
+
+    ``A``: the diffusivity's coefficient (Skillen et al. 2013 and DualSPHysics use 2);
+    ``R``: Sun et al.'s anti-clumping weight of ``(W_ij / W(dx))^4`` (0.2; 0 for Lind's plain
+    concentration gradient); ``surface`` / ``splash``: ``div r`` over the bulk lattice's below which
+    a particle is at the free surface (tangential shift only) / a drop (no shift).
+    """
+
+    name = "fickian"
+    A: float = 2.0
+    R: float = 0.2
+    surface: float = 0.985
+    splash: float = 0.5
+
+    def __post_init__(self):
+        for field in ("A", "R", "surface", "splash"):
+            value = getattr(self, field)
+            if not (isinstance(value, (int, float)) and value >= 0 and value == value):
+                raise ValueError(f"Fickian: {field} must be a number >= 0 (got {value!r})")
+        if not self.splash <= self.surface <= 1.0:
+            raise ValueError(f"Fickian: need splash <= surface <= 1 (fractions of the bulk's div r); got splash = "
+                             f"{self.splash}, surface = {self.surface}")
+
+    def displacement(self, P, nbrs, params, config):
+        from .pair_sum import pair_sum
+
+        nf = config.n_fluid
+        sums = pair_sum(_concentration_pair(float(self.R)), P.x, {"vol": P.vol}, {"vol": P.vol}, params, nbrs,
+                        P.kind, config)
+        g, g0, divr = jnp.stack(sums[0:3], axis=1), jnp.stack(sums[3:6], axis=1), sums[6]
+        divr = divr / _lattice_divergence(jax.lax.stop_gradient(P.vol[0]), jax.lax.stop_gradient(params.fluid.h),
+                                          config.scheme.kernel)
+        h = params.fluid.h
+        speed = safe_norm(jnp.sum(P.v[:nf] ** 2, axis=1))
+        dr = -(self.A * h * config.dt) * speed[:, None] * g
+        g0n = safe_norm(jnp.sum(g0 ** 2, axis=1))
+        n = -g0 / jnp.where(g0n > 0, g0n, 1.0)[:, None]
+        tangent = dr - jnp.sum(dr * n, axis=1, keepdims=True) * n
+        dr = jnp.where((divr < self.surface)[:, None], tangent, dr)
+        fluid = P.kind[:nf] == Kind.FLUID
+        dr = jnp.where((fluid & (divr >= self.splash))[:, None], dr, 0.0)
+        return jnp.concatenate([dr, jnp.zeros((P.x.shape[0] - nf, 3), dr.dtype)])
+
+
+@functools.lru_cache(maxsize=None)
+def _concentration_pair(R: float):
+    """The pair function (``sph.pair_sum``) of the concentration sums: ``V_j (1 + R (W/W(dx))^4) F d``
+    (3), ``V_j F d`` (3) and ``-V_j F r^2`` (``div r``), ``F = (dW/dr) / r``, ``d = x_i - x_j``;
+    ``dx`` the row's ``vol^(1/3)``."""
+    def fn(ri, cj, d, params, mask, fluid_j, config):
+        kernel = config.scheme.kernel
+        h = params.fluid.h
+        r2 = d[0] ** 2 + d[1] ** 2 + d[2] ** 2
+        r = safe_norm(r2)
+        V = jnp.where(mask, cj["vol"], 0.0)
+        F = jnp.where(mask, kernel.f(r, h), 0.0)
+        w_dx = kernel.w(jnp.cbrt(ri["vol"]), h)
+        weight = 1.0 + R * (kernel.w(r, h) / w_dx) ** 4
+        plain = tuple(V * F * d[a] for a in range(3))
+        return tuple(weight * p for p in plain) + plain + (-V * F * r2,)
+
+    fn.__name__ = f"concentration_R{R:g}"
+    return fn
+
+
+def _lattice_divergence(vol, h, kernel):
+    """``bulk_divergence`` in jit: ``-sum_n dx^3 F(|n| dx) |n dx|^2`` over the lattice offsets of
+    spacing ``dx = vol^(1/3)`` (kernels with support 2h, h/dx up to 3)."""
+    dx = jnp.cbrt(vol)
+    n = jnp.arange(-6, 7, dtype=jnp.asarray(vol).dtype)
+    r2 = dx * dx * (n[:, None, None] ** 2 + n[None, :, None] ** 2 + n[None, None, :] ** 2)
+    r = safe_norm(r2)
+    return -vol * jnp.sum(jnp.where(r2 > 0, kernel.f(r, h) * r2, 0.0))
+
+
+def bulk_divergence(kernel, h_over_dx: float) -> float:
+    """``div r`` of a particle inside a filled cubic lattice (host, numpy): ``-sum_j dx^3 F r^2``
+    over the lattice offsets (3 for a kernel whose discrete moment is exact)."""
+    import numpy as np
+
+    R = int(np.ceil(2.0 * h_over_dx))
+    n = np.arange(-R, R + 1, dtype=float)
+    off = np.stack(np.meshgrid(n, n, n, indexing="ij"), -1).reshape(-1, 3)
+    r = np.linalg.norm(off, axis=1)
+    keep = r > 0
+    return float(-np.sum(np.asarray(kernel.f(r[keep], h_over_dx), float) * r[keep] ** 2))
