@@ -31,6 +31,11 @@ PEERS_FILE_GLOB = "peers_*.jsonl"
 # ----------------------------------------------------------------------------------------------
 
 
+
+def _options_text(options) -> str:
+    """A record's scheme options (``wave_box.py --option``) as ``k=v`` text, "-" for none."""
+    return ", ".join(f"{k}={v}" for k, v in (options or {}).items()) or "-"
+
 def load(path: str) -> list[dict]:
     """Records of a ``.jsonl`` (lines starting with '{') or ``.json`` (object or list) file."""
     if path.endswith(".jsonl"):
@@ -1450,7 +1455,9 @@ def sec_waves(doc: Doc):
               "potential-flow modes 1-6 (spurious vorticity and particle noise). `settle`: seconds of still-water "
               "relaxation (`scenes.settle`) before the wave (0: the cubic lattice). `walls`: the wall model of the bed "
               "(`adami`, the default; `dynamic`, Crespo's dynamic boundary particles; `extrapolated`, DFSPH's). `dfsph` rows: "
-              "`DFSPH` with the laminar viscosity, its CFL a velocity CFL, its relaxation within the Jacobi sweeps' bound.")
+              "`DFSPH` with the laminar viscosity, its CFL a velocity CFL, its relaxation within the Jacobi sweeps' bound. "
+              "`options`: further fields of the scheme (`--option`): `shifting` (`sph.shifting`), DFSPH's `tolerance`, "
+              "`divergence_solve`, `free_surface`.")
         rows = [[r.get("scheme", "wcsph").split(":")[0], r.get("kernel", "wendland_c2"), r["variant"],
                  r.get("diffusion", "fourtakas" if r["variant"] != "no-diffusion" else "none"),
                  r.get("delta", 0.1) if r.get("scheme", "wcsph") == "wcsph" else "-", r.get("walls", "adami"), r["dx"],
@@ -1458,10 +1465,11 @@ def sec_waves(doc: Doc):
                  r["amp_first_period"], r["decay_per_period"], r["decay_per_wavelength"], r["lamb_per_wavelength"],
                  r["bed_per_wavelength"], f"{r['omega_over_theory']:.4f}", r.get("settle", 0.0),
                  r.get("energy_lost_over_mode_lost", "-"), r.get("ke_y_over_wave_energy", "-"),
-                 r.get("ke_rotational_over_wave_energy", "-"), r["wall_s"], r.get("date")] for r in recs]
+                 r.get("ke_rotational_over_wave_energy", "-"), _options_text(r.get("options")), r["wall_s"],
+                 r.get("date")] for r in recs]
         doc.p(table(["scheme", "kernel", "variant", "diffusion", "delta", "walls", "dx [m]", "h/dx", "CFL", "c0 / sqrt(g d)", "a/dx", "ka", "n_fluid", "nu eff. [m^2/s]", "mode after 1 T / a",
                      "decay / T", "decay / L", "Lamb / L", "bed / L", "omega / theory", "settle [s]", "dissipated",
-                     "KE y", "KE rot.", "wall s", "date"], rows))
+                     "KE y", "KE rot.", "options", "wall s", "date"], rows))
     recs = doc.records("paddle_transfer.jsonl", "python experiments/paddle_transfer.py --paddle PADDLE --kh KH --dx DX")
     if recs is not None:
         doc.p("Piston and flap wave makers against Biesel's transfer functions (`experiments/paddle_transfer.py`, "
