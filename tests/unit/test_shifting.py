@@ -18,8 +18,9 @@ DX = 0.05
 
 @pytest.fixture(scope="module")
 def tank():
-    """A periodic layer of still water 6 layers deep (Wendland C2, h = 1.5 dx), its list built,
-    every particle moving at 0.2 m/s along x (the shift scales with the speed)."""
+    """A periodic layer of water 6 layers deep on its lattice at uniform density (Wendland C2,
+    h = 1.5 dx), its list built, every particle moving at 0.2 m/s along x (the shift scales with the
+    speed)."""
     scheme = rj.WCSPH(shifting=rj.sph.Fickian())
     sc = rj.scenes.hydrostatic_tank(dx=DX, length=0.5, width=0.3, depth=6 * DX, periodic_xy=True, scheme=scheme)
     st = refresh(sc.state, sc.config)
@@ -27,8 +28,29 @@ def tank():
     fluid = np.asarray(P.kind) == int(Kind.FLUID)
     v = np.zeros(P.x.shape, np.float32)
     v[fluid, 0] = 0.2
-    st = st.replace(particles=P.replace(v=jnp.asarray(v)))
+    st = st.replace(particles=P.replace(v=jnp.asarray(v), rho=jnp.full_like(P.rho, float(sc.params.fluid.rho0))))
     return sc, st
+
+
+def test_volumes_follow_the_density():
+    """The concentration counts ``m / rho`` volumes: a lattice carrying the hydrostatic densities of a
+    soft fluid (1.4 % denser at the bed) is, by those densities, too loose at depth, and its deep rows
+    are shifted down, towards the spacing the densities give (with the lattice's volumes nothing
+    would move, and a settled, compressed column would be pushed up instead)."""
+    scheme = rj.WCSPH(shifting=rj.sph.Fickian())
+    sc = rj.scenes.hydrostatic_tank(dx=DX, length=0.5, width=0.3, depth=12 * DX, periodic_xy=True, scheme=scheme,
+                                    c0=20.0)
+    st = refresh(sc.state, sc.config)
+    P = st.particles
+    fl = np.asarray(P.kind) == int(Kind.FLUID)
+    assert np.asarray(P.rho)[fl].max() / float(sc.params.fluid.rho0) > 1.005
+    v = np.where(fl[:, None], [0.2, 0.0, 0.0], 0.0)
+    st = st.replace(particles=P.replace(v=jnp.asarray(v, P.x.dtype)))
+    dr = _shift(sc, st)
+    z = np.asarray(st.particles.x)[:, 2]
+    inner = fl & (z > 1.4 * DX) & (z < 5.0 * DX)  # off the bed's rows and the surface's band
+    assert dr[inner, 2].max() < 0.0
+    assert np.abs(dr[inner, :2]).max() < 1e-3 * np.abs(dr[inner, 2]).min()
 
 
 def _shift(sc, st, x=None):

@@ -12,7 +12,10 @@ The terms (one class each, a frozen dataclass with a ``name``; ``sph.by_name("sh
 
 * ``NoShifting`` (``"none"``, the default): particles move with the flow only;
 * ``Fickian`` (``"fickian"``): Fick's law with Skillen et al.'s (2013) diffusivity,
-  ``dr_i = -A h |v_i| dt grad C_i``, ``grad C_i = sum_j V_j (1 + R (W_ij / W(dx))^4) grad_i W_ij``
+  ``dr_i = -A h |v_i| dt grad C_i``, ``grad C_i = sum_j V_j (1 + R (W_ij / W(dx))^4) grad_i W_ij``,
+  ``V_j = m_j / rho_j`` (with the lattice's volume instead, the hydrostatic compression of a still
+  column reads as a concentration gradient: the shift lifted the water steadily, 0.27 of a wave's
+  energy per period in ``experiments/wave_box.py``)
   (with ``R`` > 0, Sun et al.'s (2017) anti-clumping weight, which keeps particle pairs from
   collapsing onto each other); near the free surface (``div r_i`` below ``surface``) only the part
   of ``dr`` tangent to it, ``(I - n n) dr`` with the outward normal ``n = -grad C0 / |grad C0|``
@@ -20,9 +23,12 @@ The terms (one class each, a frozen dataclass with a ``name``; ``sph.by_name("sh
   fill); a particle with ``div r_i`` below ``splash`` (a drop) is not shifted. ``div r_i =
   -sum_j V_j (x_i - x_j) . grad_i W_ij`` is ~3 in a filled 3D lattice (``bulk_divergence``: the
   thresholds are fractions of it); under a flat free surface (Wendland C2, h = 1.5 dx) it is 2.03 /
-  2.43 / 2.90 in the top three layers and 3.00 below: every layer whose kernel the surface cuts
-  must count as surface (the third layer's full shift, up into the surface's void, was 2e-4 dx a
-  step at 0.2 m/s), so the default ``surface`` is 0.985 of the bulk's. All neighbours count (walls and block particles fill the
+  2.43 / 2.90 in the top three layers and 3.00 below. The surface's particles (``div r`` below
+  ``surface``, 0.85 of the bulk's: the top two layers) and every particle with one of them within
+  the kernel's support (Sun et al.'s near-surface band) get the tangential part only: a layer whose
+  kernel the surface cuts sees a concentration gradient out of the water, and its full shift lifted
+  the water steadily (a threshold at 0.985 of the bulk's instead of the band: 0.26 of a wave's
+  energy per period into potential energy in ``experiments/wave_box.py``; at 0.999: 0.07). All neighbours count (walls and block particles fill the
   kernel as water would).
 
 The displacement is applied with the step's drift, ``x' = x + dt v + dr`` (``displacement``, on
@@ -82,13 +88,14 @@ class Fickian(Shifting):
     ``A``: the diffusivity's coefficient (Skillen et al. 2013 and DualSPHysics use 2);
     ``R``: Sun et al.'s anti-clumping weight of ``(W_ij / W(dx))^4`` (0.2; 0 for Lind's plain
     concentration gradient); ``surface`` / ``splash``: ``div r`` over the bulk lattice's below which
-    a particle is at the free surface (tangential shift only) / a drop (no shift).
+    a particle is at the free surface / a drop (no shift); the surface's particles and those with
+    one of them within the kernel's support get the tangential shift only.
     """
 
     name = "fickian"
     A: float = 2.0
     R: float = 0.2
-    surface: float = 0.985
+    surface: float = 0.85
     splash: float = 0.5
 
     def __post_init__(self):
@@ -104,8 +111,9 @@ class Fickian(Shifting):
         from .pair_sum import pair_sum
 
         nf = config.n_fluid
-        sums = pair_sum(_concentration_pair(float(self.R)), P.x, {"vol": P.vol}, {"vol": P.vol}, params, nbrs,
-                        P.kind, config)
+        V = params.fluid.rho0 * P.vol / P.rho  # m / rho: a compressed column is not a concentration gradient
+        sums = pair_sum(_concentration_pair(float(self.R)), P.x, {"vol": V}, {"vol": V}, params, nbrs, P.kind,
+                        config)
         g, g0, divr = jnp.stack(sums[0:3], axis=1), jnp.stack(sums[3:6], axis=1), sums[6]
         divr = divr / _lattice_divergence(jax.lax.stop_gradient(P.vol[0]), jax.lax.stop_gradient(params.fluid.h),
                                           config.scheme.kernel)
@@ -115,17 +123,28 @@ class Fickian(Shifting):
         g0n = safe_norm(jnp.sum(g0 ** 2, axis=1))
         n = -g0 / jnp.where(g0n > 0, g0n, 1.0)[:, None]
         tangent = dr - jnp.sum(dr * n, axis=1, keepdims=True) * n
-        dr = jnp.where((divr < self.surface)[:, None], tangent, dr)
+        at_surface = (divr < self.surface) & (P.kind[:nf] == Kind.FLUID)
+        flag = jnp.concatenate([at_surface, jnp.zeros((P.x.shape[0] - nf,), bool)]).astype(P.x.dtype)
+        (near,) = pair_sum(_near_pair, P.x, {}, {"flag": flag}, params, nbrs, P.kind, config)
+        dr = jnp.where((at_surface | (near > 0))[:, None], tangent, dr)
         fluid = P.kind[:nf] == Kind.FLUID
         dr = jnp.where((fluid & (divr >= self.splash))[:, None], dr, 0.0)
         return jnp.concatenate([dr, jnp.zeros((P.x.shape[0] - nf, 3), dr.dtype)])
 
 
+def _near_pair(ri, cj, d, params, mask, fluid_j, config):
+    """The pair function of the near-surface band: ``flag_j`` over the pairs within the kernel's
+    support ``2h``."""
+    r2 = d[0] ** 2 + d[1] ** 2 + d[2] ** 2
+    h = params.fluid.h
+    return (jnp.where(mask & (r2 < 4.0 * h * h), cj["flag"], 0.0),)
+
+
 @functools.lru_cache(maxsize=None)
 def _concentration_pair(R: float):
     """The pair function (``sph.pair_sum``) of the concentration sums: ``V_j (1 + R (W/W(dx))^4) F d``
-    (3), ``V_j F d`` (3) and ``-V_j F r^2`` (``div r``), ``F = (dW/dr) / r``, ``d = x_i - x_j``;
-    ``dx`` the row's ``vol^(1/3)``."""
+    (3), ``V_j F d`` (3) and ``-V_j F r^2`` (``div r``), ``F = (dW/dr) / r``, ``d = x_i - x_j``,
+    ``V = m / rho``; ``dx`` the row's ``V^(1/3)``."""
     def fn(ri, cj, d, params, mask, fluid_j, config):
         kernel = config.scheme.kernel
         h = params.fluid.h
