@@ -31,10 +31,10 @@ PEERS_FILE_GLOB = "peers_*.jsonl"
 # ----------------------------------------------------------------------------------------------
 
 
-
 def _options_text(options) -> str:
     """A record's scheme options (``wave_box.py --option``) as ``k=v`` text, "-" for none."""
     return ", ".join(f"{k}={v}" for k, v in (options or {}).items()) or "-"
+
 
 def load(path: str) -> list[dict]:
     """Records of a ``.jsonl`` (lines starting with '{') or ``.json`` (object or list) file."""

@@ -12,11 +12,11 @@ The terms (one class each, a frozen dataclass with a ``name``; ``sph.by_name("sh
 
 * ``NoShifting`` (``"none"``, the default): particles move with the flow only;
 * ``Fickian`` (``"fickian"``): Fick's law with Skillen et al.'s (2013) diffusivity,
-  ``dr_i = -A h |v_i| dt grad C_i``, ``grad C_i = sum_j V_j (1 + R (W_ij / W(dx))^4) grad_i W_ij``,
-  ``V_j = m_j / rho_j`` (with the lattice's volume instead, the hydrostatic compression of a still
-  column reads as a concentration gradient pushing up)
-  (with ``R`` > 0, Sun et al.'s (2017) anti-clumping weight, which keeps particle pairs from
-  collapsing onto each other); near the free surface (``div r_i`` below ``surface``) only the part
+  ``dr_i = -A h |v_i| dt grad C_i``, ``grad C_i = sum_j V_j (1 + R (W_ij / W(dx))^4) grad_i W_ij``
+  over all neighbours (walls and block particles fill the kernel as water would), ``V_j = m_j /
+  rho_j`` (with the lattice's volume instead, the hydrostatic compression of a still column reads
+  as a concentration gradient pushing up), ``R`` > 0 Sun et al.'s (2017) anti-clumping weight,
+  which keeps particle pairs from collapsing onto each other; near the free surface (``div r_i`` below ``surface``) only the part
   of ``dr`` tangent to it, ``(I - n n) dr`` with the outward normal ``n = -grad C0 / |grad C0|``
   of the unweighted concentration ``C0`` (Lind et al. 2012: a free surface is not a void to
   fill); a particle with ``div r_i`` below ``splash`` (a drop) is not shifted. ``div r_i =
@@ -29,8 +29,7 @@ The terms (one class each, a frozen dataclass with a ``name``; ``sph.by_name("sh
   the water steadily. In ``experiments/wave_box.py``'s box (kd 1, a/dx 0.67) the potential energy
   still rises with the band, 0.14 of the wave's energy per period (lattice volumes and a threshold
   at 0.985 of the bulk's instead of the band: 0.30; m/rho volumes and 0.985: 0.26; 0.999: 0.07),
-  and the wave decays faster than without shifting (RESULTS, wave box). All neighbours count (walls and block particles fill the
-  kernel as water would).
+  and the wave decays faster than without shifting (RESULTS, wave box).
 
 The displacement is applied with the step's drift, ``x' = x + dt v + dr`` (``displacement``, on
 the positions and velocities at the step's start; the densities and velocities are carried
@@ -124,11 +123,11 @@ class Fickian(Shifting):
         g0n = safe_norm(jnp.sum(g0 ** 2, axis=1))
         n = -g0 / jnp.where(g0n > 0, g0n, 1.0)[:, None]
         tangent = dr - jnp.sum(dr * n, axis=1, keepdims=True) * n
-        at_surface = (divr < self.surface) & (P.kind[:nf] == Kind.FLUID)
+        fluid = P.kind[:nf] == Kind.FLUID
+        at_surface = (divr < self.surface) & fluid
         flag = jnp.concatenate([at_surface, jnp.zeros((P.x.shape[0] - nf,), bool)]).astype(P.x.dtype)
         (near,) = pair_sum(_near_pair, P.x, {}, {"flag": flag}, params, nbrs, P.kind, config)
         dr = jnp.where((at_surface | (near > 0))[:, None], tangent, dr)
-        fluid = P.kind[:nf] == Kind.FLUID
         dr = jnp.where((fluid & (divr >= self.splash))[:, None], dr, 0.0)
         return jnp.concatenate([dr, jnp.zeros((P.x.shape[0] - nf, 3), dr.dtype)])
 
@@ -164,22 +163,18 @@ def _concentration_pair(R: float):
 
 def _lattice_divergence(vol, h, kernel):
     """``bulk_divergence`` in jit: ``-sum_n dx^3 F(|n| dx) |n dx|^2`` over the lattice offsets of
-    spacing ``dx = vol^(1/3)`` (kernels with support 2h, h/dx up to 3)."""
+    spacing ``dx = vol^(1/3)`` (kernels with support 2h, h/dx up to 3, as ``dfsph.lattice_sum``)."""
+    from .dfsph import _LATTICE_REACH
+
     dx = jnp.cbrt(vol)
-    n = jnp.arange(-6, 7, dtype=jnp.asarray(vol).dtype)
+    n = jnp.arange(-_LATTICE_REACH, _LATTICE_REACH + 1, dtype=jnp.asarray(vol).dtype)
     r2 = dx * dx * (n[:, None, None] ** 2 + n[None, :, None] ** 2 + n[None, None, :] ** 2)
     r = safe_norm(r2)
     return -vol * jnp.sum(jnp.where(r2 > 0, kernel.f(r, h) * r2, 0.0))
 
 
 def bulk_divergence(kernel, h_over_dx: float) -> float:
-    """``div r`` of a particle inside a filled cubic lattice (host, numpy): ``-sum_j dx^3 F r^2``
-    over the lattice offsets (3 for a kernel whose discrete moment is exact)."""
-    import numpy as np
-
-    R = int(np.ceil(2.0 * h_over_dx))
-    n = np.arange(-R, R + 1, dtype=float)
-    off = np.stack(np.meshgrid(n, n, n, indexing="ij"), -1).reshape(-1, 3)
-    r = np.linalg.norm(off, axis=1)
-    keep = r > 0
-    return float(-np.sum(np.asarray(kernel.f(r[keep], h_over_dx), float) * r[keep] ** 2))
+    """``div r`` of a particle inside a filled cubic lattice (host): ``-sum_j dx^3 F r^2`` over the
+    lattice offsets (3 for a kernel whose discrete moment is exact); ``_lattice_divergence`` at
+    unit spacing."""
+    return float(_lattice_divergence(1.0, h_over_dx, kernel))
