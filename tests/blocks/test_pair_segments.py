@@ -10,7 +10,9 @@ the forces, the contact history (per contact feature), a rollout, its gradient a
 compared with the evaluation over every pair slot, every contact slot and the crossings of every
 edge pair (``pair_segment=0, law_slots=0, crossing_edges=0``) in
 float64, on a scene whose buffer has both empty and occupied segments (two stacks of boxes far
-apart, sliding on each other, with joint water so that its patch path is segmented too). A pair
+apart, sliding on each other, with joint water so that its patch path is segmented too), in
+segments of 4 pairs (one level) and of 1 pair (21 segments: skipped in two levels, groups of
+segments). A pair
 with more active points than ``law_slots`` sets ``CONTACT_POINT_OVERFLOW``, never silently dropped.
 """
 
@@ -33,7 +35,7 @@ SEG = 4
 GRAV = (0.0, 0.0, -9.81)  # m/s^2; an array is made under float64 (a float32 g sits the stacks on a stick/slip knife edge)
 
 
-def _scene():
+def _scene(seg=SEG):
     polys, pos = [slab(3.0, 1.0, 0.2)], [[0.0, 0.0, -0.1]]
     for x0 in (-1.0, 1.0):  # two stacks of 3 boxes, 2 m apart: most pairs never overlap
         for k in range(3):
@@ -43,13 +45,13 @@ def _scene():
     cfg, par, st = make_blocks(polys, positions=np.asarray(pos), motion=[Motion.FIXED] + [Motion.DYNAMIC] * 6,
                                velocities=np.asarray(vel),
                                normal_stiffness=1e7, joint_water=True, joint_water_level=0.5,
-                               joint_aperture=2e-3, pair_segment=SEG)
+                               joint_aperture=2e-3, pair_segment=seg)
     return cfg, par, st
 
 
-@pytest.fixture(scope="module")
-def scene(x64):
-    return _scene()
+@pytest.fixture(scope="module", params=[SEG, 1], ids=["segments", "groups"])
+def scene(x64, request):
+    return _scene(request.param)
 
 
 def _rollout(cfg, n_steps, dt):
@@ -90,9 +92,15 @@ def test_segments_skip_and_match_one_pass(scene):
     one_out = jax.jit(lambda s: rb.contact_forces(s, par, one, dt=1e-4, gravity=g, return_info=True))(
         rb.fit_history(one, st))
     live = np.asarray(seg_out[4]["pair_mask"])
-    P = live.size
-    per_seg = np.pad(live, (0, -P % SEG)).reshape(-1, SEG).any(1)
+    P, seg = live.size, cfg.pair_segment
+    per_seg = np.pad(live, (0, -P % seg)).reshape(-1, seg).any(1)
     assert per_seg.any() and not per_seg.all(), per_seg  # the scene really has skipped segments
+    if seg == 1:  # two levels: groups of ceil(sqrt(21)) = 5 segments; the evaluated pairs are
+        # gathered to the front, so the groups past them are skipped whole
+        from rockjax.blocks.contact import SEGMENT_GROUPS_FROM
+        assert per_seg.size >= SEGMENT_GROUPS_FROM
+        n_eval = int(np.sum(np.asarray(seg_out[4]["evaluated"])))
+        assert 0 < -(-n_eval // 5) < 5, n_eval
     assert int(seg_out[4]["n_contacts"]) > 0
     assert 0 < cfg.law_slots < cfg.contact_slots  # the law really runs over gathered slots
     for a, b in zip(seg_out[:2], one_out[:2]):  # forces, torques
@@ -120,6 +128,8 @@ def test_segments_skip_and_match_one_pass(scene):
 @pytest.mark.slow  # ~60 s of compiles (two rollouts, two gradients, a vmap): the slow suite, run in CI
 def test_segmented_rollout_grad_and_vmap(scene):
     cfg, par, st = scene
+    if cfg.pair_segment != 1:
+        pytest.skip("the two-level scene covers the segments (one compile budget for the slow suite)")
     one = _one_pass(cfg)
     dt = 0.5 * float(rb.stable_dt(cfg, par, st))
     n = 60

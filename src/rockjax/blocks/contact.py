@@ -54,6 +54,7 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ..types import Status
 from .broadphase import aabbs, candidate_pairs, pairs_are_static
@@ -273,35 +274,58 @@ def _segmented(fn, live, args, seg: int, fill=None):
     ``fn`` maps arrays [S, ...] to a pytree of arrays [S, ...]; ``live`` [P] bool; ``args`` arrays
     [P, ...] (padded here with zeros to a whole number of segments, the outputs cut back to P).
     ``seg <= 0`` or ``>= P``: one call, nothing skipped. Under ``jax.vmap`` the ``cond`` becomes a
-    select (every segment evaluated, as with one call)."""
+    select (every segment evaluated, as with one call).
+
+    More than ``SEGMENT_GROUPS_FROM`` segments are skipped in two levels: groups of
+    ``ceil(sqrt(segments))`` segments, a group with no live row skipped whole. A skipped segment
+    still costs its loop iteration (the slices of every argument and output, ~25 small kernels);
+    the evaluated pairs are gathered to the front, so few groups are live and a step runs about
+    ``2 sqrt(segments)`` iterations instead of ``segments``."""
     P = live.shape[0]
     if seg <= 0 or seg >= P:
         return fn(*args)
     n_seg = -(-P // seg)
-    pad = n_seg * seg - P
+    group = 1 if n_seg < SEGMENT_GROUPS_FROM else int(np.ceil(np.sqrt(n_seg)))
+    n_grp = -(-n_seg // group)
+    pad = n_grp * group * seg - P
+    lead = (n_grp, group, seg) if group > 1 else (n_seg, seg)
 
     def split(a):
         if pad:
             a = jnp.concatenate([a, jnp.zeros((pad,) + a.shape[1:], a.dtype)], 0)
-        return a.reshape((n_seg, seg) + a.shape[1:])
+        return a.reshape(lead + a.shape[1:])
 
     xs = tuple(split(a) for a in args)
-    live_seg = jnp.any(split(live), 1)
-    shapes = jax.eval_shape(fn, *(x[0] for x in xs))
+    live_seg = jnp.any(split(live), -1)
+    shapes = jax.eval_shape(fn, *(x.reshape((-1,) + x.shape[len(lead) - 1:])[0] for x in xs))
 
-    def skip(*_):
-        out = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
+    def skip(*lead_shape):
+        out = jax.tree_util.tree_map(lambda s: jnp.zeros(lead_shape + s.shape, s.dtype), shapes)
         for key, value in (fill or {}).items():
             if key in out:
-                out[key] = jnp.full(shapes[key].shape, value, shapes[key].dtype)
+                out[key] = jnp.full(lead_shape + shapes[key].shape, value, shapes[key].dtype)
         return out
 
-    def body(_, x):
-        lv, a = x
-        return None, jax.lax.cond(lv, fn, skip, *a)
+    def segments(lv, a):  # lv [k] bool, a: args [k, seg, ...] -> outputs [k, seg, ...]
+        def body(_, x):
+            lv_s, a_s = x
+            return None, jax.lax.cond(lv_s, fn, lambda *_: skip(), *a_s)
 
-    _, out = jax.lax.scan(body, None, (live_seg, xs))
-    return jax.tree_util.tree_map(lambda o: o.reshape((n_seg * seg,) + o.shape[2:])[:P], out)
+        return jax.lax.scan(body, None, (lv, a))[1]
+
+    if group == 1:
+        out = segments(live_seg, xs)
+    else:
+        def group_body(_, x):
+            lv, a = x
+            return None, jax.lax.cond(jnp.any(lv), segments, lambda *_: skip(group), lv, a)
+
+        out = jax.lax.scan(group_body, None, (live_seg, xs))[1]
+    return jax.tree_util.tree_map(lambda o: o.reshape((-1,) + o.shape[len(lead):])[:P], out)
+
+
+#: :func:`_segmented` skips in two levels (groups of segments) from this many segments on
+SEGMENT_GROUPS_FROM = 12
 
 
 def _to_front(keep):

@@ -35,7 +35,24 @@ def tied_max(x, axis: int = -1):
     is then 0 and the gradient NaN. Here the entries within 4 ulps of the max tie, and the argmax
     always counts, so the count is at least 1; at exact ties the derivative is ``jnp.max``'s.
     """
-    return jnp.max(x, axis)
+    return _max(x, axis)
+
+
+#: :func:`tied_max` reduces an axis of at most this many entries as a tree of ``maximum``
+UNROLL_MAX = 16
+
+
+def _max(x, axis: int):
+    """``jnp.max(x, axis)``; a short axis (a block's vertices) as a tree of elementwise maxima of
+    its slices, which XLA:CPU fuses with the projections that produce ``x`` (as a reduction it
+    ran as a separate library call, ~2-3x slower on the narrow phase's [pairs, V, candidates])."""
+    n = x.shape[axis]
+    if n > UNROLL_MAX or n < 2:
+        return jnp.max(x, axis)
+    parts = [jax.lax.index_in_dim(x, k, axis, keepdims=False) for k in range(n)]
+    while len(parts) > 1:
+        parts = [jnp.maximum(a, b) for a, b in zip(parts[::2], parts[1::2])] + parts[len(parts) - len(parts) % 2:]
+    return parts[0]
 
 
 @tied_max.defjvp
