@@ -266,40 +266,6 @@ def _active_slots(active, k: int):
     return jnp.full((S, k), n, jnp.int32).at[jnp.arange(S)[:, None], rank].set(slots, mode="drop")
 
 
-def _pack_meta(tree, n_lead: int):
-    """How :func:`_pack` lays out the leaves of ``tree`` (arrays or shape structs with ``n_lead``
-    leading axes): per leaf ``(kind, offset, width, trailing shape, dtype)``, the kinds (one per
-    dtype; bool travels as int32) and the tree structure."""
-    leaves, treedef = jax.tree_util.tree_flatten(tree)
-    kinds, width, layout = [], {}, []
-    for leaf in leaves:
-        kind = jnp.dtype(jnp.int32) if leaf.dtype == jnp.bool_ else jnp.dtype(leaf.dtype)
-        if kind not in kinds:
-            kinds.append(kind)
-            width[kind] = 0
-        w = int(np.prod(leaf.shape[n_lead:], dtype=np.int64))
-        layout.append((kinds.index(kind), width[kind], w, tuple(leaf.shape[n_lead:]), leaf.dtype))
-        width[kind] += w
-    return layout, kinds, treedef
-
-
-def _pack(tree, meta, n_lead: int):
-    """The leaves of ``tree`` as one array per kind, [lead..., width] (``_pack_meta``)."""
-    layout, kinds, _ = meta
-    parts = [[] for _ in kinds]
-    for leaf, (k, _, w, _, _) in zip(jax.tree_util.tree_leaves(tree), layout):
-        parts[k].append(leaf.reshape(leaf.shape[:n_lead] + (w,)).astype(kinds[k]))
-    return tuple(jnp.concatenate(p, -1) if len(p) > 1 else p[0] for p in parts)
-
-
-def _unpack(packed, meta):
-    """:func:`_pack`'s inverse: the tree, its leaves with the leading axes of ``packed``."""
-    layout, _, treedef = meta
-    lead = packed[0].shape[:-1]
-    leaves = [packed[k][..., o:o + w].reshape(lead + shp).astype(dt) for k, o, w, shp, dt in layout]
-    return jax.tree_util.tree_unflatten(treedef, leaves)
-
-
 def _segmented(fn, live, args, seg: int, fill=None):
     """``fn(*args)`` over the leading (pair) axis of ``args`` in segments of ``seg`` rows, skipping
     (``lax.cond``) a segment with no ``live`` row: its outputs are zeros, or ``fill[key]`` for the
@@ -310,12 +276,11 @@ def _segmented(fn, live, args, seg: int, fill=None):
     ``seg <= 0`` or ``>= P``: one call, nothing skipped. Under ``jax.vmap`` the ``cond`` becomes a
     select (every segment evaluated, as with one call).
 
-    A skipped segment still costs its loop iteration: so that it is few kernels, the arguments and
-    the outputs travel packed, one array per dtype (:func:`_pack`), and more than
-    ``SEGMENT_GROUPS_FROM`` segments are skipped in two levels: groups of ``ceil(sqrt(segments))``
-    segments, a group with no live row skipped whole. The evaluated pairs are gathered to the
-    front, so few groups are live and a step runs about ``2 sqrt(segments)`` iterations instead of
-    ``segments``."""
+    More than ``SEGMENT_GROUPS_FROM`` segments are skipped in two levels: groups of
+    ``ceil(sqrt(segments))`` segments, a group with no live row skipped whole. A skipped segment
+    still costs its loop iteration (the slices of every argument and output, ~25 small kernels);
+    the evaluated pairs are gathered to the front, so few groups are live and a step runs about
+    ``2 sqrt(segments)`` iterations instead of ``segments``."""
     P = live.shape[0]
     if seg <= 0 or seg >= P:
         return fn(*args)
@@ -330,27 +295,21 @@ def _segmented(fn, live, args, seg: int, fill=None):
             a = jnp.concatenate([a, jnp.zeros((pad,) + a.shape[1:], a.dtype)], 0)
         return a.reshape(lead + a.shape[1:])
 
-    in_meta = _pack_meta(args, 1)
-    xs = tuple(split(a) for a in _pack(args, in_meta, 1))
+    xs = tuple(split(a) for a in args)
     live_seg = jnp.any(split(live), -1)
-    shapes = jax.eval_shape(fn, *(a[:seg] for a in args))
-    out_meta = _pack_meta(shapes, 1)
-    fill_tree = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape[1:], s.dtype), shapes)
-    for key, value in (fill or {}).items():
-        if key in fill_tree:
-            fill_tree[key] = jnp.full(shapes[key].shape[1:], value, shapes[key].dtype)
-    fill_row = _pack(fill_tree, _pack_meta(fill_tree, 0), 0)  # [width] per kind
+    shapes = jax.eval_shape(fn, *(x.reshape((-1,) + x.shape[len(lead) - 1:])[0] for x in xs))
 
     def skip(*lead_shape):
-        return tuple(jnp.broadcast_to(r, lead_shape + r.shape) for r in fill_row)
+        out = jax.tree_util.tree_map(lambda s: jnp.zeros(lead_shape + s.shape, s.dtype), shapes)
+        for key, value in (fill or {}).items():
+            if key in out:
+                out[key] = jnp.full(lead_shape + shapes[key].shape, value, shapes[key].dtype)
+        return out
 
-    def run(*a):  # one segment, packed in and out
-        return _pack(fn(*_unpack(a, in_meta)), out_meta, 1)
-
-    def segments(lv, a):  # lv [k] bool, a: packed args [k, seg, w] -> packed outputs [k, seg, w]
+    def segments(lv, a):  # lv [k] bool, a: args [k, seg, ...] -> outputs [k, seg, ...]
         def body(_, x):
             lv_s, a_s = x
-            return None, jax.lax.cond(lv_s, run, lambda *_: skip(seg), *a_s)
+            return None, jax.lax.cond(lv_s, fn, lambda *_: skip(), *a_s)
 
         return jax.lax.scan(body, None, (lv, a))[1]
 
@@ -359,10 +318,10 @@ def _segmented(fn, live, args, seg: int, fill=None):
     else:
         def group_body(_, x):
             lv, a = x
-            return None, jax.lax.cond(jnp.any(lv), segments, lambda *_: skip(group, seg), lv, a)
+            return None, jax.lax.cond(jnp.any(lv), segments, lambda *_: skip(group), lv, a)
 
         out = jax.lax.scan(group_body, None, (live_seg, xs))[1]
-    return _unpack(tuple(o.reshape((-1, o.shape[-1]))[:P] for o in out), out_meta)
+    return jax.tree_util.tree_map(lambda o: o.reshape((-1,) + o.shape[len(lead):])[:P], out)
 
 
 #: :func:`_segmented` skips in two levels (groups of segments) from this many segments on
