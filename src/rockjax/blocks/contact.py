@@ -581,9 +581,16 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
     crosses = config.fcp_crosses if support_edges and 0 < config.fcp_crosses < support_edges ** 2 else 0
     bodies = _Bodies(Xw, Nw, Dw, sh, state.x, state.v, state.omega, jnp.where(dyn, 1.0 / m, 0.0))
 
-    def pair_forces(i, j, mask, plane, plane_valid, shear, feature_old):
+    # the law's history (``law_slots`` per pair, most of the buffer's bytes) is read by row (``src``)
+    # inside the evaluated segments only: a skipped segment and the reordering below never touch it
+    old_shear, old_feature = hist.shear, hist.contact_feature
+
+    def pair_forces(i, j, mask, plane, plane_valid, src):
         """Common plane, contact points and contact law of the pairs (i, j) [S] (a segment of the
-        buffer): per-pair forces on j and torques on i and j, the new history, diagnostics."""
+        buffer; their law history at rows ``src`` [S] of the step's history): per-pair forces on j
+        and torques on i and j, the new history, diagnostics."""
+        shear = jnp.take(old_shear, src, axis=0, mode="clip")
+        feature_old = jnp.take(old_feature, src, axis=0, mode="clip")
         def planes(its):
             return lambda: _common_planes(bodies, i, j, plane, plane_valid, iterations=its,
                                           support_edges=support_edges, crosses=crosses)
@@ -633,7 +640,8 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
         return out
 
     i, j = pairs[:, 0], pairs[:, 1]
-    args = (i, j, mask, hist.plane, hist.plane_valid, hist.shear, hist.contact_feature)
+    rows = jnp.arange(mask.shape[0], dtype=jnp.int32)
+    args = (i, j, mask, hist.plane, hist.plane_valid, rows)
     fill = {"feature": -1, "contact_feature": -1}
     if config.skip_separated:
         # pairs their stored plane still separates beyond the contact tolerances are not evaluated
@@ -652,11 +660,11 @@ def contact_forces(state: BlockState, params: BlockParams, config: BlockConfig, 
                 per = _segmented(pair_forces, keep[order], tuple(a[order] for a in args), config.pair_segment, fill)
                 per = {k: v[rank] for k, v in per.items()}
             else:  # the list itself is reordered (any order serves; the next step reads it as it is)
-                hist = jax.tree_util.tree_map(lambda a: a[order], hist.replace(box_lo=None, box_hi=None)).replace(
-                    box_lo=hist.box_lo, box_hi=hist.box_hi)
+                hist = hist.replace(pairs=hist.pairs[order], pair_mask=hist.pair_mask[order], plane=hist.plane[order],
+                                    plane_valid=hist.plane_valid[order], shear=None, contact_feature=None)
                 pairs, mask, keep, warm_gap = hist.pairs, hist.pair_mask, keep[order], warm_gap[order]
                 i, j = pairs[:, 0], pairs[:, 1]
-                args = (i, j, mask, hist.plane, hist.plane_valid, hist.shear, hist.contact_feature)
+                args = (i, j, mask, hist.plane, hist.plane_valid, order)
                 per = _segmented(pair_forces, keep, args, config.pair_segment, fill)
         else:
             per = pair_forces(*args)
