@@ -589,17 +589,23 @@ class BlockState:
 # ------------------------------------------------------------------------------------------
 
 
+def _rotate(R, v):
+    """[B,3,3] rotations of the [B,K,3] body vectors v: [B,K,3] (``einsum('bij,bkj->bki')`` as
+    multiply-adds: as a batched dot XLA:CPU ran it as a library call, not fused with its users)."""
+    return (R[:, None, :, 0] * v[..., 0, None] + R[:, None, :, 1] * v[..., 1, None]
+            + R[:, None, :, 2] * v[..., 2, None])
+
+
 def world_vertices(state: BlockState) -> jax.Array:
     """[B,V,3] world positions of the (padded) vertices (m); padding slots sit at the centroid."""
-    R = quat_matrix(state.q)
-    return jnp.einsum("bij,bvj->bvi", R, state.shape.vertices) + state.x[:, None, :]
+    return _rotate(quat_matrix(state.q), state.shape.vertices) + state.x[:, None, :]
 
 
 def world_planes(state: BlockState):
     """World face planes: ``(normals [B,F,3], offsets [B,F])`` with ``n.x <= d`` inside (m)."""
-    R = quat_matrix(state.q)
-    n = jnp.einsum("bij,bfj->bfi", R, state.shape.face_normal)
-    d = state.shape.face_offset + jnp.einsum("bfi,bi->bf", n, state.x)
+    n = _rotate(quat_matrix(state.q), state.shape.face_normal)
+    x = state.x[:, None, :]
+    d = state.shape.face_offset + (n[..., 0] * x[..., 0] + n[..., 1] * x[..., 1] + n[..., 2] * x[..., 2])
     return n, d
 
 
