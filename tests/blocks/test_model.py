@@ -155,13 +155,13 @@ def test_block_capacities_and_tuning_apart_from_physics():
 def test_auto_pair_segment_and_shape_tables():
     """``pair_segment`` None (the default) resolves from the pair buffer and the blocks' edge
     directions: boxes (3 directions, the complete FCP start) the buffer in 8 segments, a multiple
-    of 16 slots; rocks (many directions) 16 slots; a set value is kept. The shape-only tables
+    of 16 slots; rocks (many directions) 16 slots, 32 from a buffer of 256 slots; a set value is kept. The shape-only tables
     built once by ``make_blocks`` equal what the step used to build each time: the vertex ->
     edge-direction table (``fcp.vertex_directions``), the inverse inertia and its least principal
     moment."""
     from rockjax.blocks.fcp import vertex_directions
     assert [rb.auto_pair_segment(p, simple=True) for p in (55, 128, 129, 901, 9001)] == [16, 16, 32, 128, 1136]
-    assert rb.auto_pair_segment(9001, simple=False) == 16
+    assert [rb.auto_pair_segment(p, simple=False) for p in (55, 255, 256, 9001)] == [16, 16, 32, 32]
     rng = np.random.default_rng(0)
     pts = rng.normal(size=(12, 3))
     rock = rb.ConvexPolyhedron.from_vertices(0.1 * pts / np.linalg.norm(pts, axis=1, keepdims=True))
@@ -170,7 +170,7 @@ def test_auto_pair_segment_and_shape_tables():
         cfg, _, st = make_blocks(polys, motion=[Motion.FIXED, Motion.DYNAMIC, Motion.DYNAMIC],
                                  positions=np.array([[0, 0, -0.25], [0, 0, 1.0], [0, 0, 3.0]]), pair_capacity=300)
         simple = len(polys[1].vertices) == 8
-        assert cfg.tuning.pair_segment is None and cfg.pair_segment == (48 if simple else 16)
+        assert cfg.tuning.pair_segment is None and cfg.pair_segment == (48 if simple else 32)
         assert cfg.tuned(pair_segment=seg).pair_segment == seg
         sh = st.shape
         ref = [np.asarray(vertex_directions(sh.edges[b], sh.edge_mask[b], sh.vertex_mask.shape[1], sh.edge_direction[b],

@@ -272,15 +272,16 @@ def _segmented(fn, live, args, seg: int, fill=None):
     keys of ``fill`` (a dict) when ``fn`` returns a dict.
 
     ``fn`` maps arrays [S, ...] to a pytree of arrays [S, ...]; ``live`` [P] bool; ``args`` arrays
-    [P, ...] (padded here with zeros to a whole number of segments, the outputs cut back to P).
-    ``seg <= 0`` or ``>= P``: one call, nothing skipped. Under ``jax.vmap`` the ``cond`` becomes a
-    select (every segment evaluated, as with one call).
+    [P, ...]. ``seg <= 0`` or ``>= P``: one call, nothing skipped. Under ``jax.vmap`` the ``cond``
+    becomes a select (every segment evaluated, as with one call).
 
-    More than ``SEGMENT_GROUPS_FROM`` segments are skipped in two levels: groups of
-    ``ceil(sqrt(segments))`` segments, a group with no live row skipped whole. A skipped segment
-    still costs its loop iteration (the slices of every argument and output, ~25 small kernels);
-    the evaluated pairs are gathered to the front, so few groups are live and a step runs about
-    ``2 sqrt(segments)`` iterations instead of ``segments``."""
+    The outputs are buffers [P, ...] carried through the loop (filled first), each evaluated
+    segment written into them in place (``dynamic_update_slice``; the last segment's rows clamped
+    into [0, P): rows it shares with the one before are evaluated again, to the same values): a
+    skipped segment writes nothing. From ``SEGMENT_GROUPS_FROM`` segments on they are skipped in
+    two levels, groups of ``ceil(sqrt(segments))`` segments, a group with no live row skipped
+    whole: the evaluated pairs are gathered to the front, so few groups are live and a step runs
+    about ``2 sqrt(segments)`` loop iterations instead of ``segments``."""
     P = live.shape[0]
     if seg <= 0 or seg >= P:
         return fn(*args)
@@ -288,40 +289,33 @@ def _segmented(fn, live, args, seg: int, fill=None):
     group = 1 if n_seg < SEGMENT_GROUPS_FROM else int(np.ceil(np.sqrt(n_seg)))
     n_grp = -(-n_seg // group)
     pad = n_grp * group * seg - P
-    lead = (n_grp, group, seg) if group > 1 else (n_seg, seg)
+    lv = jnp.concatenate([live, jnp.zeros((pad,), bool)]) if pad else live
+    live_seg = jnp.any(lv.reshape(n_grp * group, seg), -1)
+    fill = fill or {}
 
-    def split(a):
-        if pad:
-            a = jnp.concatenate([a, jnp.zeros((pad,) + a.shape[1:], a.dtype)], 0)
-        return a.reshape(lead + a.shape[1:])
+    def empty(path, s):  # s: an output of one segment [seg, ...]
+        key = getattr(path[0], "key", None) if path else None
+        return jnp.full((P,) + s.shape[1:], fill.get(key, 0), s.dtype)
 
-    xs = tuple(split(a) for a in args)
-    live_seg = jnp.any(split(live), -1)
-    shapes = jax.eval_shape(fn, *(x.reshape((-1,) + x.shape[len(lead) - 1:])[0] for x in xs))
+    bufs = jax.tree_util.tree_map_with_path(empty, jax.eval_shape(fn, *(a[:seg] for a in args)))
 
-    def skip(*lead_shape):
-        out = jax.tree_util.tree_map(lambda s: jnp.zeros(lead_shape + s.shape, s.dtype), shapes)
-        for key, value in (fill or {}).items():
-            if key in out:
-                out[key] = jnp.full(lead_shape + shapes[key].shape, value, shapes[key].dtype)
-        return out
+    def evaluate(k, bufs):  # segment k: rows [k seg, k seg + seg), the last one clamped into [0, P)
+        start = jnp.minimum(k * seg, P - seg)
+        out = fn(*(jax.lax.dynamic_slice_in_dim(a, start, seg) for a in args))
+        return jax.tree_util.tree_map(lambda b, o: jax.lax.dynamic_update_slice_in_dim(b, o, start, 0), bufs, out)
 
-    def segments(lv, a):  # lv [k] bool, a: args [k, seg, ...] -> outputs [k, seg, ...]
-        def body(_, x):
-            lv_s, a_s = x
-            return None, jax.lax.cond(lv_s, fn, lambda *_: skip(), *a_s)
+    def segment(bufs, k):
+        return jax.lax.cond(live_seg[k], evaluate, lambda k, b: b, k, bufs), None
 
-        return jax.lax.scan(body, None, (lv, a))[1]
-
+    ks = jnp.arange(n_grp * group, dtype=jnp.int32)
     if group == 1:
-        out = segments(live_seg, xs)
-    else:
-        def group_body(_, x):
-            lv, a = x
-            return None, jax.lax.cond(jnp.any(lv), segments, lambda *_: skip(group), lv, a)
+        return jax.lax.scan(segment, bufs, ks)[0]
 
-        out = jax.lax.scan(group_body, None, (live_seg, xs))[1]
-    return jax.tree_util.tree_map(lambda o: o.reshape((-1,) + o.shape[len(lead):])[:P], out)
+    def segment_group(bufs, kg):
+        return jax.lax.cond(jnp.any(live_seg[kg]), lambda b: jax.lax.scan(segment, b, kg)[0], lambda b: b,
+                            bufs), None
+
+    return jax.lax.scan(segment_group, bufs, ks.reshape(n_grp, group))[0]
 
 
 #: :func:`_segmented` skips in two levels (groups of segments) from this many segments on

@@ -107,7 +107,8 @@ class BlockCapacities:
       law_slots: the contact law runs over this many slots per pair, into which the pair's active
         contact points are gathered (in slot order); the shear history is kept per law slot with
         the point's contact feature (``ContactHistory.contact_feature``) and follows the feature
-        from step to step: a box pair has up to 16 points (of its 81 ``contact_slots``). More set
+        from step to step: a box pair has up to 16 points (of its 81 ``contact_slots``;
+        ``make_blocks`` sets :func:`face_contact_points`). More set
         ``Status.CONTACT_POINT_OVERFLOW`` (doubled, at most ``contact_slots``). 0, or >=
         ``contact_slots``: the law runs over every slot (``BlockConfig.history_slots``).
       crossing_edges: the edge-edge crossings of a pair are sought among at most this many edges
@@ -1169,13 +1170,14 @@ def _contact_fields(geometry: BlockGeometry, *, fcp_iterations, fcp_warm_iterati
 
 def block_capacities(geometry: BlockGeometry, *, broadphase: Broadphase = Broadphase.ALL_PAIRS,
                      large_blocks: tuple = (), pair_capacity: Optional[int] = None, grid_cell_capacity: int = 32,
-                     joint_patch_points: int = 32, law_slots: int = 32, crossing_edges: int = 8,
+                     joint_patch_points: int = 32, law_slots: Optional[int] = None, crossing_edges: int = 8,
                      support_edges: Optional[int] = None, fcp_crosses: Optional[int] = None) -> BlockCapacities:
     """The :class:`BlockCapacities` of these blocks: ``make_blocks``' arguments of those names
     (same messages), with the defaults sized from the blocks: ``pair_capacity`` every candidate
     pair (ALL_PAIRS) or ``8 x n_dynamic + (#large blocks x B)`` (GRID, at most every pair);
     ``support_edges`` the most edge directions touching one face of any block; ``fcp_crosses``
-    ``FCP_CROSSES`` (128) where ``support_edges^2`` is more, else 0 (every slot)."""
+    ``FCP_CROSSES`` (128) where ``support_edges^2`` is more, else 0 (every slot); ``law_slots``
+    :func:`face_contact_points` of the blocks."""
     B, n_static = geometry.n_blocks, geometry.n_static_pairs
     if pair_capacity is None:
         if broadphase == Broadphase.ALL_PAIRS:
@@ -1195,6 +1197,8 @@ def block_capacities(geometry: BlockGeometry, *, broadphase: Broadphase = Broadp
         fcp_crosses = FCP_CROSSES if 0 < int(support_edges) and FCP_CROSSES < int(support_edges) ** 2 else 0
     if int(fcp_crosses) != fcp_crosses or fcp_crosses < 0:
         raise ValueError(f"fcp_crosses must be a non-negative integer (0: support_edges^2 slots), got {fcp_crosses}")
+    if law_slots is None:
+        law_slots = face_contact_points(geometry.polyhedra)
     for name, value, lo in (("joint_patch_points", joint_patch_points, 3), ("law_slots", law_slots, 0),
                             ("crossing_edges", crossing_edges, 0)):
         if int(value) < lo:  # the messages BlockConfig gave when these were its fields
@@ -1205,9 +1209,27 @@ def block_capacities(geometry: BlockGeometry, *, broadphase: Broadphase = Broadp
                            fcp_crosses=int(fcp_crosses))
 
 
+def face_contact_points(polyhedra) -> int:
+    """The most contact points two of these blocks have pressed face to face: ``2 (n_a + n_b)``
+    for the two largest faces (n vertices each) of two different blocks -- each face's vertices
+    inside the other block, and the crossings of the two boundaries (a convex polygon's edge
+    crosses another convex polygon's boundary at most twice: at most ``2 min(n_a, n_b)``). Two
+    boxes: 16; 12-vertex rocks (triangles) on a box floor: 14. The default ``law_slots``: a
+    deeper overlap may have more points and sets ``Status.CONTACT_POINT_OVERFLOW`` (the driver
+    doubles the slots and reruns the chunk); the law's history is ``law_slots`` per pair, so a
+    smaller buffer is a faster step (100 rocks: 16 slots instead of 32, 1.2x)."""
+    faces = sorted((max(len(p.face_vertices(f)) for f in range(p.n_faces)) for p in polyhedra), reverse=True)
+    if not faces:
+        return 0
+    return 2 * (faces[0] + (faces[1] if len(faces) > 1 else faces[0]))
+
+
 #: ``auto_pair_segment``: the pair buffer's segments for simple blocks, and the least segment
 PAIR_SEGMENTS = 8
 PAIR_SEGMENT_MIN = 16
+#: ``auto_pair_segment``: pair buffers from this many slots on get segments of 2 x PAIR_SEGMENT_MIN
+#: (blocks that are not simple)
+PAIR_SEGMENT_WIDE_FROM = 256
 
 
 def auto_pair_segment(pair_capacity: int, *, simple: bool) -> int:
@@ -1219,12 +1241,15 @@ def auto_pair_segment(pair_capacity: int, *, simple: bool) -> int:
     ``PAIR_SEGMENT_MIN`` (16) slots (1136 for 9001 slots, 128 for 901, 16 for up to 128): a pile
     whose every block rests on another evaluates ~1 pair per block, one live segment. Others
     (rocks: ~35 us a pair, its FCP iterating): ``PAIR_SEGMENT_MIN``, so few evaluated pairs cost
-    little more than themselves. The evaluated pairs are gathered to the front; a step runs about
+    little more than themselves; twice that from ``PAIR_SEGMENT_WIDE_FROM`` (256) slots on, where
+    tens of pairs are evaluated and a segment's ~200 kernels are shared by more of them (a 100-rock
+    pile, 901 slots, ~27 evaluated pairs: 32 instead of 16 ran 1.18x faster; a 10-rock pile, 55
+    slots, 1-2 pairs: 0.6x). The evaluated pairs are gathered to the front; a step runs about
     ``evaluated / segment + 1`` live segments and skips the rest. The sizes against each other on
     box and rock piles: ``experiments/bench_blocks.py --ab-segments`` (RESULTS.md, "Blocks vs
     MuJoCo")."""
     if not simple:
-        return PAIR_SEGMENT_MIN
+        return PAIR_SEGMENT_MIN * (2 if pair_capacity >= PAIR_SEGMENT_WIDE_FROM else 1)
     per = -(-int(pair_capacity) // PAIR_SEGMENTS)
     return PAIR_SEGMENT_MIN * max(1, -(-per // PAIR_SEGMENT_MIN))
 
@@ -1358,7 +1383,7 @@ def make_blocks(
     joint_aperture: float = 0.0,
     joint_patch_points: int = 32,
     pair_segment: Optional[int] = None,
-    law_slots: int = 32,
+    law_slots: Optional[int] = None,
     crossing_edges: int = 8,
     support_edges: Optional[int] = None,
     fcp_crosses: Optional[int] = None,
@@ -1422,7 +1447,8 @@ def make_blocks(
         the broad-phase margin is raised to it.  joint_patch_points, pair_segment, law_slots,
         crossing_edges, support_edges, fcp_crosses, skip_separated: see :class:`BlockConfig`;
         ``support_edges`` defaults to the most edge directions touching one face of any of the
-        blocks, ``fcp_crosses`` to 128 (0, every slot, where ``support_edges^2`` is not more).
+        blocks, ``fcp_crosses`` to 128 (0, every slot, where ``support_edges^2`` is not more),
+        ``law_slots`` to :func:`face_contact_points` (16 for boxes).
       law: the contact law (``rockjax.blocks.laws``); default ``PenaltyCoulomb()``.
       check_overlap: refuse blocks that start inside each other (at least one of them DYNAMIC)
         deeper than ``START_OVERLAP`` (1e-3) of the smaller block's size, as scene files do;
